@@ -1,0 +1,44 @@
+"""Typed errors. Every message names the file, field and value that was wrong."""
+
+
+class D3DWAError(Exception):
+    """Base of every error this package raises on purpose."""
+
+
+class ConfigError(D3DWAError, ValueError):
+    """A parameter set has an impossible value (non-divisible rates, empty sets, ...)."""
+
+
+class UnknownNameError(D3DWAError, KeyError):
+    """An unknown world, method or profile name."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ""
+
+
+class WorldFormatError(D3DWAError, ValueError):
+    """A world file (native YAML, Gazebo SDF, map_server YAML/PGM) is malformed."""
+
+
+class ScanError(D3DWAError, ValueError):
+    """A scan or scan-point array cannot be used (NaN points, zero beams, bad geometry)."""
+
+
+class ProfileError(D3DWAError, ValueError):
+    """A randomisation profile is unknown, incomplete or has an out-of-range value."""
+
+
+class EstimatorError(D3DWAError, ValueError):
+    """The state estimator was fed NaN, a non-monotonic timestamp, or diverged."""
+
+
+class CheckpointError(D3DWAError, ValueError):
+    """A checkpoint is corrupt, truncated, of the wrong shape, action set or version."""
+
+
+class BagFormatError(D3DWAError, ValueError):
+    """A ROS bag is missing, unreadable, or lacks a topic the replay needs."""
+
+
+class ResultsError(D3DWAError, ValueError):
+    """A results directory is incomplete or from an incompatible version."""

@@ -1,0 +1,170 @@
+"""Parameter sets, as frozen dataclasses whose defaults are the paper's Table "Parameter values".
+
+Units are SI throughout (m, s, rad). Everything the planner, observation, reward and
+simulator need is here so no magic number lives in a function body.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import ConfigError
+
+
+@dataclass(frozen=True)
+class RobotLimits:
+    """Kinematic limits of the Kachaka base (paper Table "Parameter values")."""
+
+    v_max: float = 0.4
+    """Max translational velocity, m/s (reverse is not used: v >= 0)."""
+    w_max: float = 2.0
+    """Max angular velocity, rad/s."""
+    a_max: float = 2.0
+    """Max translational acceleration, m/s^2."""
+    alpha_max: float = 3.0
+    """Max angular acceleration, rad/s^2."""
+
+    def __post_init__(self) -> None:
+        for name in ("v_max", "w_max", "a_max", "alpha_max"):
+            value = getattr(self, name)
+            if not np.isfinite(value) or value <= 0:
+                raise ConfigError(f"RobotLimits.{name} must be a positive number, got {value!r}")
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """Collision model of the planner: circles of radius r along the body's x axis.
+
+    The paper plans with one r = 0.15 m circle about base_link, which does not cover
+    Kachaka's 0.387 x 0.240 m body (its front corners are ~0.27 m from base_link). We keep
+    the paper's r and margin m, but place three r-circles along the body centre line so their
+    union covers the whole box; a trajectory is admissible when every circle centre stays
+    farther than r + m from every scan point.
+    """
+
+    radius: float = 0.15
+    """Circle radius r, m (the paper's robot radius)."""
+    centers_x: tuple[float, ...] = (-0.0855, 0.0435, 0.1725)
+    """Circle centres on the body x axis, m, base_link frame."""
+
+    def __post_init__(self) -> None:
+        if self.radius <= 0 or not self.centers_x:
+            raise ConfigError(f"Footprint needs radius > 0 and >= 1 centre, got {self!r}")
+
+
+@dataclass(frozen=True)
+class PlannerParams:
+    """DWA parameters (SPEC section 4)."""
+
+    n_v: int = 20
+    """Velocity samples along v."""
+    n_w: int = 40
+    """Velocity samples along w."""
+    dt: float = 0.1
+    """Rollout resolution, s."""
+    control_period: float = 0.1
+    """Control period over which the dynamic window is formed, s."""
+    safety_margin: float = 0.05
+    """Safety margin m, m: admissible iff clearance > r + m."""
+    clearance_cap: float = 1.0
+    """Clearance criterion is capped here, m (beyond it a trajectory counts as fully clear)."""
+    grid_resolution: float = 0.01
+    """Cell size of the distance field used to evaluate clearance, m."""
+    braking_check: bool = True
+    """Also require v <= sqrt(2 * clearance_ahead * a_max) (classic DWA braking condition)."""
+    footprint: Footprint = field(default_factory=Footprint)
+    limits: RobotLimits = field(default_factory=RobotLimits)
+
+    def __post_init__(self) -> None:
+        if self.n_v < 1 or self.n_w < 1:
+            raise ConfigError(f"PlannerParams.n_v/n_w must be >= 1, got {self.n_v} x {self.n_w}")
+        for name in ("dt", "control_period", "clearance_cap", "grid_resolution"):
+            if getattr(self, name) <= 0:
+                raise ConfigError(f"PlannerParams.{name} must be > 0, got {getattr(self, name)!r}")
+        if self.safety_margin < 0:
+            raise ConfigError(f"PlannerParams.safety_margin must be >= 0, got {self.safety_margin!r}")
+
+    @property
+    def admissible_clearance(self) -> float:
+        """r + m: the smallest clearance (circle centre to scan point) that is admissible, m."""
+        return self.footprint.radius + self.safety_margin
+
+
+@dataclass(frozen=True)
+class ObservationParams:
+    """Observation layout (SPEC section 5)."""
+
+    sectors: int = 8
+    """Number of angular sectors K."""
+    fov: float = float(np.deg2rad(240.0))
+    """Field of view covered by the sectors, rad, centred forward."""
+    d_max: float = 3.5
+    """Max usable range, m."""
+    goal_clip: float = 6.0
+    """Goal distance clip, m."""
+
+    def __post_init__(self) -> None:
+        if self.sectors < 1 or self.d_max <= 0 or self.goal_clip <= 0 or not 0 < self.fov <= 2 * np.pi:
+            raise ConfigError(f"ObservationParams out of range: {self!r}")
+
+    @property
+    def dim(self) -> int:
+        return 4 + self.sectors
+
+
+@dataclass(frozen=True)
+class TerminationParams:
+    """When an episode ends (paper Table "Parameter values")."""
+
+    goal_tolerance: float = 0.10
+    """Distance from base_link to goal counted as reached, m."""
+    collision_distance: float = 0.10
+    """Minimum valid lidar range below which the robot counts as collided, m."""
+    time_limit: float = 60.0
+    """Episode time limit, s."""
+
+    def __post_init__(self) -> None:
+        if self.goal_tolerance <= 0 or self.collision_distance < 0 or self.time_limit <= 0:
+            raise ConfigError(f"TerminationParams out of range: {self!r}")
+
+
+@dataclass(frozen=True)
+class RewardParams:
+    """Reward magnitudes (baseline = DQDWA's, unscaled). D3QN uses scale = 0.01."""
+
+    goal: float = 50.0
+    collision: float = -2.0
+    timeout: float = -2.0
+    step: float = -0.02
+    goal_shaping: float = 0.1
+    obstacle_shaping: float = 0.05
+    scale: float = 1.0
+    """Multiplies every term (the D3QN uses 1/100)."""
+
+
+@dataclass(frozen=True)
+class SimParams:
+    """Simulator rates. physics_hz must be a multiple of control_hz."""
+
+    physics_hz: int = 240
+    control_hz: int = 10
+
+    def __post_init__(self) -> None:
+        if self.physics_hz <= 0 or self.control_hz <= 0:
+            raise ConfigError(
+                f"SimParams: rates must be positive, got physics_hz={self.physics_hz}, control_hz={self.control_hz}"
+            )
+        if self.physics_hz % self.control_hz != 0:
+            raise ConfigError(
+                f"SimParams: physics_hz={self.physics_hz} is not divisible by control_hz={self.control_hz}"
+            )
+
+    @property
+    def substeps(self) -> int:
+        return self.physics_hz // self.control_hz
+
+    @property
+    def control_period(self) -> float:
+        return 1.0 / self.control_hz
