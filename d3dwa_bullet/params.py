@@ -70,10 +70,8 @@ class PlannerParams:
     """Safety margin m, m: admissible iff clearance > r + m."""
     clearance_cap: float = 1.0
     """Clearance criterion is capped here, m (beyond it a trajectory counts as fully clear)."""
-    grid_resolution: float = 0.01
-    """Cell size of the distance field used to evaluate clearance, m."""
-    braking_check: bool = True
-    """Also require v <= sqrt(2 * clearance_ahead * a_max) (classic DWA braking condition)."""
+    grid_resolution: float = 0.02
+    """Cell size of the clearance lattice (costmap), m."""
     footprint: Footprint = field(default_factory=Footprint)
     limits: RobotLimits = field(default_factory=RobotLimits)
 
@@ -84,7 +82,9 @@ class PlannerParams:
             if getattr(self, name) <= 0:
                 raise ConfigError(f"PlannerParams.{name} must be > 0, got {getattr(self, name)!r}")
         if self.safety_margin < 0:
-            raise ConfigError(f"PlannerParams.safety_margin must be >= 0, got {self.safety_margin!r}")
+            raise ConfigError(
+                f"PlannerParams.safety_margin must be >= 0, got {self.safety_margin!r}"
+            )
 
     @property
     def admissible_clearance(self) -> float:
@@ -106,7 +106,12 @@ class ObservationParams:
     """Goal distance clip, m."""
 
     def __post_init__(self) -> None:
-        if self.sectors < 1 or self.d_max <= 0 or self.goal_clip <= 0 or not 0 < self.fov <= 2 * np.pi:
+        if (
+            self.sectors < 1
+            or self.d_max <= 0
+            or self.goal_clip <= 0
+            or not 0 < self.fov <= 2 * np.pi
+        ):
             raise ConfigError(f"ObservationParams out of range: {self!r}")
 
     @property

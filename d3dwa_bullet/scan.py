@@ -41,7 +41,9 @@ class LaserScan:
     def __post_init__(self) -> None:
         ranges = np.asarray(self.ranges, dtype=np.float64)
         if ranges.ndim != 1 or ranges.size == 0:
-            raise ScanError(f"LaserScan.ranges must be a non-empty 1-D array, got shape {ranges.shape}")
+            raise ScanError(
+                f"LaserScan.ranges must be a non-empty 1-D array, got shape {ranges.shape}"
+            )
         for name in ("angle_min", "angle_increment", "range_min", "range_max"):
             if not np.isfinite(getattr(self, name)):
                 raise ScanError(f"LaserScan.{name} must be finite, got {getattr(self, name)!r}")

@@ -148,15 +148,21 @@ def body_outline(pose: Sequence[float], samples_per_side: int = 8) -> np.ndarray
     local[:, 0] += BODY_CENTER_X
     x, y, yaw = pose
     c, s = math.cos(yaw), math.sin(yaw)
-    return np.column_stack((x + c * local[:, 0] - s * local[:, 1], y + s * local[:, 0] + c * local[:, 1]))
+    return np.column_stack(
+        (x + c * local[:, 0] - s * local[:, 1], y + s * local[:, 0] + c * local[:, 1])
+    )
 
 
 def validate_task(world: World) -> None:
     """Refuse a start pose in collision or a goal inside an obstacle."""
     if not all(math.isfinite(v) for v in (*world.start, *world.goal)):
-        raise WorldFormatError(f"{world.source}: start {world.start} / goal {world.goal} must be finite")
+        raise WorldFormatError(
+            f"{world.source}: start {world.start} / goal {world.goal} must be finite"
+        )
     if world.time_limit is not None and not world.time_limit > 0:
-        raise WorldFormatError(f"{world.source}: field 'time_limit' must be > 0, got {world.time_limit!r}")
+        raise WorldFormatError(
+            f"{world.source}: field 'time_limit' must be > 0, got {world.time_limit!r}"
+        )
     if not world.obstacles:
         return
     body = body_outline(world.start)
@@ -184,7 +190,9 @@ def _vector(value: Any, n: int, where: str, key: str) -> tuple[float, ...]:
     try:
         vec = tuple(float(v) for v in value)
     except (TypeError, ValueError) as err:
-        raise WorldFormatError(f"{where}: field '{key}' must be {n} numbers, got {value!r}") from err
+        raise WorldFormatError(
+            f"{where}: field '{key}' must be {n} numbers, got {value!r}"
+        ) from err
     if len(vec) != n or not all(math.isfinite(v) for v in vec):
         raise WorldFormatError(f"{where}: field '{key}' must be {n} finite numbers, got {value!r}")
     return vec

@@ -1,0 +1,276 @@
+"""The Dynamic Window Approach of SPEC section 4, as one pure, vectorised function.
+
+Everything is in base_link at planning time: the robot sits at the origin facing +x,
+``points`` are valid scan returns and ``goal`` is the goal, both in the body frame.
+
+Design choices (SPEC section 4 leaves them open):
+
+* Footprint: three circles of radius r = 0.15 m on the body axis (see
+  :class:`~d3dwa_bullet.params.Footprint`) cover Kachaka's whole body. The clearance of a
+  trajectory is the smallest distance from any circle centre, at any rollout step
+  (0.1 s .. tau), to any scan point, capped at ``clearance_cap``. Admissible means
+  clearance > r + m, the paper's margin semantics.
+* No separate braking condition: a trajectory is admissible only if it is clear for the
+  whole horizon tau >= 2 s, far longer than the stopping time v_max / a_max = 0.2 s, so
+  the classic v <= sqrt(2 * dist * a_max) test can never reject an admissible sample.
+* Clearance lives on a lattice, like a ROS costmap: scan points and circle centres are
+  snapped to cells of ``grid_resolution`` (cell (i, j) is centred at (i, j) * res in
+  base_link) and clearance is the Euclidean distance between cell centres, computed for all
+  samples at once with OpenCV's exact distance transform. Against continuous geometry the
+  snapping costs at most res / sqrt(2) per end (1.4 cm at 2 cm cells); ``scripts/
+  bench_planner.py`` reports the measured figure.
+* Fallback when nothing is admissible: brake as hard as the window allows and turn toward
+  the goal; ``PlanResult.fallback`` flags it.
+* Ties in J go to the lowest flat sample index (v-major, then w), like ``numpy.argmax``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import cv2
+import numpy as np
+
+from .params import PlannerParams
+from .scan import check_points
+
+cv2.setNumThreads(1)
+
+
+class PlannerAction(NamedTuple):
+    """DWA evaluation weights and prediction horizon chosen for one control step."""
+
+    wp: float
+    """Progress weight."""
+    wc: float
+    """Clearance weight."""
+    ws: float
+    """Speed weight."""
+    tau: float
+    """Prediction horizon, s."""
+
+
+class PlanResult(NamedTuple):
+    """The command and the diagnostics of one planning step. S = n_v * n_w samples."""
+
+    v: float
+    """Commanded translational velocity, m/s."""
+    w: float
+    """Commanded angular velocity, rad/s."""
+    index: int
+    """Chosen flat sample index, or -1 on fallback."""
+    fallback: bool
+    """True when no sample was admissible."""
+    samples: np.ndarray
+    """(S, 2) float64 sampled (v, w)."""
+    progress: np.ndarray
+    """(S,) raw progress criterion, m."""
+    clearance: np.ndarray
+    """(S,) raw clearance criterion, m (capped)."""
+    speed: np.ndarray
+    """(S,) raw speed criterion, m/s."""
+    admissible: np.ndarray
+    """(S,) bool."""
+    scores: np.ndarray
+    """(S,) J over normalised criteria; -inf where not admissible."""
+
+
+def dynamic_window(
+    v0: float, w0: float, params: PlannerParams
+) -> tuple[float, float, float, float]:
+    """(v_lo, v_hi, w_lo, w_hi): velocities reachable within one control period, in limits."""
+    lim, t = params.limits, params.control_period
+    v_lo = max(0.0, v0 - lim.a_max * t)
+    v_hi = min(lim.v_max, v0 + lim.a_max * t)
+    w_lo = max(-lim.w_max, w0 - lim.alpha_max * t)
+    w_hi = min(lim.w_max, w0 + lim.alpha_max * t)
+    # A state outside the limits (e.g. noisy estimate) still gets a non-empty window.
+    v_lo, v_hi = min(v_lo, v_hi), max(v_lo, v_hi)
+    w_lo, w_hi = min(w_lo, w_hi), max(w_lo, w_hi)
+    return v_lo, min(max(v_hi, 0.0), lim.v_max), w_lo, w_hi
+
+
+def sample_window(v0: float, w0: float, params: PlannerParams) -> tuple[np.ndarray, np.ndarray]:
+    """The n_v and n_w grid values spanning the dynamic window: (n_v,), (n_w,) float64."""
+    v_lo, v_hi, w_lo, w_hi = dynamic_window(v0, w0, params)
+    return np.linspace(v_lo, v_hi, params.n_v), np.linspace(w_lo, w_hi, params.n_w)
+
+
+def rollout_steps(tau: float, dt: float) -> np.ndarray:
+    """Rollout times dt, 2 dt, ..., tau: (n,) float64, s."""
+    n = max(1, int(round(tau / dt)))
+    return dt * np.arange(1, n + 1)
+
+
+def unit_arcs(ws: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pose after time t at unit speed v = 1 and turn rate w: (X, Y, theta), each (n_w, n).
+
+    Under constant (v, w) the position is v * (X, Y) and the heading theta = w t, so one
+    table per w serves every v. sinc keeps w -> 0 exact.
+    """
+    theta = ws[:, None] * t[None, :]
+    x = t[None, :] * np.sinc(theta / np.pi)
+    y = t[None, :] * np.sin(0.5 * theta) * np.sinc(theta / (2.0 * np.pi))
+    return x, y, theta
+
+
+def normalise(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Min-max normalise values to [0, 1] across mask; a constant criterion gives 0."""
+    out = np.zeros_like(values)
+    if not mask.any():
+        return out
+    sel = values[mask]
+    lo, hi = sel.min(), sel.max()
+    if hi > lo:
+        out[mask] = (sel - lo) / (hi - lo)
+    return out
+
+
+def select(
+    progress: np.ndarray,
+    clearance: np.ndarray,
+    speed: np.ndarray,
+    admissible: np.ndarray,
+    action: PlannerAction,
+) -> tuple[np.ndarray, int]:
+    """Scores J over the admissible set (-inf elsewhere) and the argmax (-1 if none)."""
+    scores = (
+        action.wp * normalise(progress, admissible)
+        + action.wc * normalise(clearance, admissible)
+        + action.ws * normalise(speed, admissible)
+    )
+    scores = np.where(admissible, scores, -np.inf)
+    return scores, (int(np.argmax(scores)) if admissible.any() else -1)
+
+
+class _DistanceField(NamedTuple):
+    dist: np.ndarray  # (H*W,) float32, metres between cell centres and nearest occupied cell
+    i0: int  # lattice index of column 0
+    j0: int  # lattice index of row 0
+    width: int
+
+
+def lattice(xy: np.ndarray, res: float) -> np.ndarray:
+    """Lattice cell index of coordinates: round(xy / res), same shape, intp."""
+    return np.floor(xy / res + 0.5).astype(np.intp)
+
+
+def _distance_field(
+    cells: np.ndarray, box: tuple[int, int, int, int], res: float
+) -> _DistanceField:
+    """Exact Euclidean distance field over lattice box (i_min, j_min, i_max, j_max).
+
+    cells: (M, 2) lattice indices of occupied cells, all inside box.
+    """
+    i_min, j_min, i_max, j_max = box
+    width, height = i_max - i_min + 1, j_max - j_min + 1
+    img = np.ones((height, width), np.uint8)
+    img[cells[:, 1] - j_min, cells[:, 0] - i_min] = 0
+    dist = cv2.distanceTransform(img, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    return _DistanceField(dist.ravel() * np.float32(res), i_min, j_min, width)
+
+
+def plan(
+    velocity: tuple[float, float],
+    points: np.ndarray,
+    goal: np.ndarray | tuple[float, float],
+    action: PlannerAction,
+    params: PlannerParams = PlannerParams(),
+) -> PlanResult:
+    """One DWA planning step.
+
+    velocity: current (v, w), m/s and rad/s.
+    points: (M, 2) float64 valid scan returns, m, base_link frame.
+    goal: (2,) goal position, m, base_link frame.
+    action: weights (wp, wc, ws) and horizon tau (s).
+    """
+    pts = check_points(points)
+    v0, w0 = float(velocity[0]), float(velocity[1])
+    gx, gy = float(goal[0]), float(goal[1])
+    vs, ws = sample_window(v0, w0, params)
+    t = rollout_steps(action.tau, params.dt)
+    ux, uy, theta = unit_arcs(ws, t)  # (n_w, n)
+    cx = np.asarray(params.footprint.centers_x)
+    cos_t, sin_t = np.cos(theta), np.sin(theta)
+    off_x = cos_t[:, :, None] * cx  # (n_w, n, C) circle-centre offsets
+    off_y = sin_t[:, :, None] * cx
+    n_s = len(vs) * len(ws)
+    cap = params.clearance_cap
+
+    # Progress and speed are cheap: only the end of each arc matters.
+    end_x = vs[:, None] * ux[None, :, -1]
+    end_y = vs[:, None] * uy[None, :, -1]
+    progress = (math.hypot(gx, gy) - np.hypot(gx - end_x, gy - end_y)).ravel()
+    speed = np.repeat(np.abs(vs), len(ws))
+    samples = np.column_stack((np.repeat(vs, len(ws)), np.tile(ws, len(vs))))
+
+    # Lattice box of every circle centre: positions are linear in v, so v's extremes bound it.
+    res = params.grid_resolution
+    ext_x = np.concatenate([(v * ux)[:, :, None] + off_x for v in (vs[0], vs[-1])])
+    ext_y = np.concatenate([(v * uy)[:, :, None] + off_y for v in (vs[0], vs[-1])])
+    reach = int(math.ceil(cap / res)) + 1
+    box = (
+        int(math.floor(ext_x.min() / res)) - reach,
+        int(math.floor(ext_y.min() / res)) - reach,
+        int(math.ceil(ext_x.max() / res)) + reach,
+        int(math.ceil(ext_y.max() / res)) + reach,
+    )
+    cells = lattice(pts, res)
+    inside = (
+        (cells[:, 0] >= box[0])
+        & (cells[:, 1] >= box[1])
+        & (cells[:, 0] <= box[2])
+        & (cells[:, 1] <= box[3])
+    )
+    if not inside.any():
+        clearance = np.full(n_s, cap)
+    else:
+        cells = cells[inside]
+        # Crop the field to the circle centres plus the points that can reach them.
+        box = (
+            min(box[0] + reach, int(cells[:, 0].min())),
+            min(box[1] + reach, int(cells[:, 1].min())),
+            max(box[2] - reach, int(cells[:, 0].max())),
+            max(box[3] - reach, int(cells[:, 1].max())),
+        )
+        field = _distance_field(cells, box, res)
+        inv = np.float32(1.0 / res)
+        # Lattice cell of every circle centre of every sample, (n_v, n_w, n, C) -> (S, n*C).
+        # Offsets keep every coordinate positive, so truncation is rounding to the cell.
+        shape = (len(vs), len(ws), len(t), len(cx))
+        v32 = vs.astype(np.float32)[:, None, None, None]
+        col = np.multiply(
+            v32, (ux * inv).astype(np.float32)[None, :, :, None], out=np.empty(shape, np.float32)
+        )
+        col += (off_x * inv - field.i0 + 0.5).astype(np.float32)
+        row = np.multiply(
+            v32, (uy * inv).astype(np.float32)[None, :, :, None], out=np.empty(shape, np.float32)
+        )
+        row += (off_y * inv - field.j0 + 0.5).astype(np.float32)
+        flat = row.astype(np.int32)
+        flat *= np.int32(field.width)
+        flat += col.astype(np.int32)
+        clearance = np.minimum(field.dist.take(flat.reshape(n_s, -1)).min(axis=1), cap).astype(
+            np.float64
+        )
+
+    admissible = clearance > params.admissible_clearance
+    scores, best = select(progress, clearance, speed, admissible, action)
+    if best >= 0:
+        v_cmd, w_cmd, fallback = float(samples[best, 0]), float(samples[best, 1]), False
+    else:
+        turn = math.copysign(params.limits.w_max, math.atan2(gy, gx))
+        v_cmd, w_cmd, fallback = float(vs[0]), float(np.clip(turn, ws[0], ws[-1])), True
+    return PlanResult(
+        v=v_cmd,
+        w=w_cmd,
+        index=best,
+        fallback=fallback,
+        samples=samples,
+        progress=progress,
+        clearance=clearance,
+        speed=speed,
+        admissible=admissible,
+        scores=scores,
+    )

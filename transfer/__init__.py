@@ -1,0 +1,30 @@
+"""Sim-to-real transfer through ROS bags.
+
+``bag_reader`` turns a ROS 1 / ROS 2 bag into numpy time series, ``replay`` runs every
+recorded scan through the observation pipeline (and, once wired, estimator, policy and
+planner), ``bag_writer`` records simulated episodes as ROS 2 bags with the Kachaka topic
+names, and ``compare`` sets two bags' scans side by side, sector by sector.
+"""
+
+from .bag_reader import BagData, read_bag
+from .bag_writer import BagRecorder, quantize_scan
+from .compare import compare_scans, format_scan_comparison
+from .replay import ReplayResult, ScanStep, StepOutput, observe_only, replay_bag
+from .topics import TopicMap, TopicResolution, resolve_topics
+
+__all__ = [
+    "BagData",
+    "BagRecorder",
+    "ReplayResult",
+    "ScanStep",
+    "StepOutput",
+    "TopicMap",
+    "TopicResolution",
+    "compare_scans",
+    "format_scan_comparison",
+    "observe_only",
+    "quantize_scan",
+    "read_bag",
+    "replay_bag",
+    "resolve_topics",
+]

@@ -1,0 +1,408 @@
+"""Record simulated episodes as ROS bags with the Kachaka bridge's topic names and types.
+
+Precision: ``sensor_msgs/LaserScan`` stores ``ranges``, ``angle_min``, ``angle_increment``,
+``range_min`` and ``range_max`` as float32, so a recorded scan is the simulated one rounded
+to float32. For a replay to reproduce the simulator's observations bit for bit, the
+simulator should build its observation from ``quantize_scan(scan)``, the scan it records.
+Everything else is float64 in ROS and round-trips exactly: odometry x, y, v, w, gyro rate,
+commands, planner parameters, and yaw too (``quaternion_from_yaw`` picks the quaternion
+whose decoding gives back the same float64, for yaw in (-pi, pi]).
+
+A failure inside ``with BagRecorder(...)`` still closes the bag properly: what was written
+up to the failure stays readable.
+"""
+
+from __future__ import annotations
+
+import functools
+import shutil
+from contextlib import suppress
+from dataclasses import dataclass
+from pathlib import Path
+from types import TracebackType
+from typing import Any, Literal
+
+import numpy as np
+
+from d3dwa_bullet.errors import BagFormatError
+from d3dwa_bullet.scan import LaserScan
+
+from .topics import (
+    FLOAT64_ARRAY,
+    IMU,
+    LASER_SCAN,
+    ODOMETRY,
+    POSE_STAMPED,
+    TF_MESSAGE,
+    TWIST,
+    TopicMap,
+)
+from .transforms import quaternion_from_yaw
+
+Storage = Literal["sqlite3", "mcap", "ros1"]
+
+
+@dataclass(frozen=True)
+class Frames:
+    """tf frame names written into headers and transforms."""
+
+    odom: str = "odom"
+    base: str = "base_link"
+    lidar: str = "lidar_link"
+    imu: str = "imu_link"
+
+
+#: Kachaka lidar and IMU positions in base_link, m (SPEC section 3).
+LIDAR_MOUNT_XYZ = (0.156, 0.0, 0.105)
+IMU_MOUNT_XYZ = (0.076, -0.066, 0.051)
+
+
+def quantize_scan(scan: LaserScan) -> LaserScan:
+    """The scan as a bag stores it: every LaserScan float field rounded to float32."""
+
+    def f32(x: float) -> float:
+        return float(np.float32(x))
+
+    return LaserScan(
+        angle_min=f32(scan.angle_min),
+        angle_increment=f32(scan.angle_increment),
+        ranges=scan.ranges.astype(np.float32).astype(np.float64),
+        range_min=f32(scan.range_min),
+        range_max=f32(scan.range_max),
+        stamp_ns=scan.stamp_ns,
+    )
+
+
+@functools.cache
+def default_typestore(ros1: bool) -> Any:
+    """ROS 1 Noetic or ROS 2 Humble message types, built once per process (building is slow)."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    if TF_MESSAGE not in store.types:  # the ROS 1 store ships without tf2_msgs
+        store.register(
+            get_types_from_msg("geometry_msgs/TransformStamped[] transforms", TF_MESSAGE)
+        )
+    return store
+
+
+class BagRecorder:
+    """Write a bag step by step; a context manager.
+
+    path: a ROS 2 bag directory (storage "sqlite3", the default, or "mcap"), or a ROS 1
+    ``.bag`` file (storage "ros1"). An existing bag is refused unless overwrite=True.
+    goal: (x, y) in the odometry frame, written once with the first step.
+    Timestamps are integer nanoseconds; every message's header stamp and receive time are
+    the step's t_ns (a scan keeps its own stamp_ns when it is non-zero).
+    """
+
+    def __init__(
+        self,
+        path: str | Path,
+        *,
+        storage: Storage = "sqlite3",
+        typestore: Any = None,
+        topics: TopicMap | None = None,
+        frames: Frames | None = None,
+        lidar_mount: tuple[float, float, float] = LIDAR_MOUNT_XYZ,
+        imu_mount: tuple[float, float, float] = IMU_MOUNT_XYZ,
+        goal: tuple[float, float] | np.ndarray | None = None,
+        overwrite: bool = False,
+    ) -> None:
+        self.path = Path(path)
+        if storage not in ("sqlite3", "mcap", "ros1"):
+            raise BagFormatError(
+                f"{self.path}: unknown storage {storage!r}; use sqlite3, mcap or ros1"
+            )
+        if (storage == "ros1") != (self.path.suffix == ".bag"):
+            raise BagFormatError(
+                f"{self.path}: a ROS 1 bag must end in '.bag' and a ROS 2 bag directory must not "
+                f"(storage={storage!r})"
+            )
+        self.storage = storage
+        self.ros1 = storage == "ros1"
+        self.typestore = typestore or default_typestore(self.ros1)
+        self.topics = topics or TopicMap()
+        self.frames = frames or Frames()
+        self.lidar_mount = tuple(float(v) for v in lidar_mount)
+        self.imu_mount = tuple(float(v) for v in imu_mount)
+        self.goal = None if goal is None else np.asarray(goal, dtype=np.float64).reshape(2)
+        self.overwrite = overwrite
+        self._writer: Any = None
+        self._connections: dict[str, Any] = {}
+        self._started = False
+        self._types = self.typestore.types
+        self.counts: dict[str, int] = {}
+
+    def __enter__(self) -> BagRecorder:
+        self.open()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if exc_type is None:
+            self.close()
+            return
+        with suppress(Exception):  # keep what was written; the original error propagates
+            self.close()
+
+    def open(self) -> None:
+        from rosbags.rosbag1 import Writer as Writer1
+        from rosbags.rosbag2 import StoragePlugin
+        from rosbags.rosbag2 import Writer as Writer2
+
+        if self.path.exists():
+            if not self.overwrite:
+                raise BagFormatError(
+                    f"{self.path}: bag exists; refusing to overwrite (overwrite=True)"
+                )
+            self._remove_existing()
+        try:
+            if self.ros1:
+                self._writer = Writer1(self.path)
+            else:
+                plugin = StoragePlugin.MCAP if self.storage == "mcap" else StoragePlugin.SQLITE3
+                self._writer = Writer2(self.path, version=9, storage_plugin=plugin)
+            self._writer.open()
+        except Exception as err:
+            raise BagFormatError(f"{self.path}: cannot create bag: {err}") from err
+
+    def _remove_existing(self) -> None:
+        p = self.path
+        if p.is_dir() and (p / "metadata.yaml").exists():
+            shutil.rmtree(p)
+        elif p.is_file() and p.suffix in (".bag", ".db3", ".mcap"):
+            p.unlink()
+        else:
+            raise BagFormatError(f"{p}: exists and does not look like a bag; not deleting it")
+
+    def close(self) -> None:
+        if self._writer is not None:
+            writer, self._writer = self._writer, None
+            writer.close()
+
+    def _connection(self, topic: str, msgtype: str) -> Any:
+        conn = self._connections.get(topic)
+        if conn is None:
+            conn = self._writer.add_connection(topic, msgtype, typestore=self.typestore)
+            self._connections[topic] = conn
+        return conn
+
+    def _write(self, topic: str | None, msgtype: str, t_ns: int, msg: Any) -> None:
+        if topic is None:
+            return
+        if self._writer is None:
+            raise BagFormatError(f"{self.path}: recorder is not open")
+        ts = self.typestore
+        data = ts.serialize_ros1(msg, msgtype) if self.ros1 else ts.serialize_cdr(msg, msgtype)
+        self._writer.write(self._connection(topic, msgtype), int(t_ns), data)
+        self.counts[topic] = self.counts.get(topic, 0) + 1
+
+    def write_message(self, topic: str, msgtype: str, t_ns: int, msg: Any) -> None:
+        """Any message of the recorder's typestore (build it with ``self.message``)."""
+        self._start(t_ns)
+        self._write(topic, msgtype, t_ns, msg)
+
+    def write_raw(self, topic: str, msgtype: str, t_ns: int, data: bytes) -> None:
+        """Already serialised bytes, written as they are (tests use it for corrupt messages)."""
+        if self._writer is None:
+            raise BagFormatError(f"{self.path}: recorder is not open")
+        self._writer.write(self._connection(topic, msgtype), int(t_ns), data)
+        self.counts[topic] = self.counts.get(topic, 0) + 1
+
+    def message(self, msgtype: str, **fields: Any) -> Any:
+        """A message instance of the recorder's typestore; ``header``s via ``self.header``."""
+        return self._msg(msgtype, **fields)
+
+    def header(self, stamp_ns: int, frame: str) -> Any:
+        """A std_msgs/Header for this recorder's ROS version."""
+        return self._header(stamp_ns, frame)
+
+    def _msg(self, msgtype: str, **kwargs: Any) -> Any:
+        return self._types[msgtype](**kwargs)
+
+    def _header(self, stamp_ns: int, frame: str) -> Any:
+        sec, nsec = divmod(int(stamp_ns), 1_000_000_000)
+        stamp = self._msg("builtin_interfaces/msg/Time", sec=sec, nanosec=nsec)
+        if self.ros1:
+            return self._msg("std_msgs/msg/Header", seq=0, stamp=stamp, frame_id=frame)
+        return self._msg("std_msgs/msg/Header", stamp=stamp, frame_id=frame)
+
+    def _vector3(self, x: float = 0.0, y: float = 0.0, z: float = 0.0) -> Any:
+        return self._msg("geometry_msgs/msg/Vector3", x=float(x), y=float(y), z=float(z))
+
+    def _quaternion(self, yaw: float) -> Any:
+        x, y, z, w = quaternion_from_yaw(yaw)
+        return self._msg("geometry_msgs/msg/Quaternion", x=x, y=y, z=z, w=w)
+
+    def _pose(self, x: float, y: float, yaw: float) -> Any:
+        position = self._msg("geometry_msgs/msg/Point", x=float(x), y=float(y), z=0.0)
+        return self._msg(
+            "geometry_msgs/msg/Pose", position=position, orientation=self._quaternion(yaw)
+        )
+
+    def _transform(self, t_ns: int, parent: str, child: str, xyz: tuple, yaw: float) -> Any:
+        tf = self._msg(
+            "geometry_msgs/msg/Transform",
+            translation=self._vector3(*xyz),
+            rotation=self._quaternion(yaw),
+        )
+        return self._msg(
+            "geometry_msgs/msg/TransformStamped",
+            header=self._header(t_ns, parent),
+            child_frame_id=child,
+            transform=tf,
+        )
+
+    def _start(self, t_ns: int) -> None:
+        if self._started:
+            return
+        self._started = True
+        f = self.frames
+        static = [
+            self._transform(t_ns, f.base, f.lidar, self.lidar_mount, 0.0),
+            self._transform(t_ns, f.base, f.imu, self.imu_mount, 0.0),
+        ]
+        self._write(
+            self.topics.tf_static, TF_MESSAGE, t_ns, self._msg(TF_MESSAGE, transforms=static)
+        )
+        if self.goal is not None:
+            self.write_goal(t_ns, self.goal)
+
+    def write_goal(self, t_ns: int, goal: tuple[float, float] | np.ndarray) -> None:
+        """geometry_msgs/PoseStamped at (x, y) m in the odometry frame."""
+        x, y = (float(v) for v in np.asarray(goal, dtype=np.float64).reshape(2))
+        msg = self._msg(
+            POSE_STAMPED, header=self._header(t_ns, self.frames.odom), pose=self._pose(x, y, 0.0)
+        )
+        self._write(self.topics.goal, POSE_STAMPED, t_ns, msg)
+
+    def write_scan(self, t_ns: int, scan: LaserScan) -> None:
+        """sensor_msgs/LaserScan in the lidar frame (ranges rounded to float32)."""
+        self._start(t_ns)
+        n = scan.ranges.size
+        msg = self._msg(
+            LASER_SCAN,
+            header=self._header(scan.stamp_ns or t_ns, self.frames.lidar),
+            angle_min=float(scan.angle_min),
+            angle_max=float(scan.angle_min + (n - 1) * scan.angle_increment),
+            angle_increment=float(scan.angle_increment),
+            time_increment=0.0,
+            scan_time=0.0,
+            range_min=float(scan.range_min),
+            range_max=float(scan.range_max),
+            ranges=scan.ranges.astype(np.float32),
+            intensities=np.zeros(0, dtype=np.float32),
+        )
+        self._write(self.topics.scan, LASER_SCAN, t_ns, msg)
+
+    def write_odometry(
+        self,
+        t_ns: int,
+        pose: tuple | np.ndarray,
+        twist: tuple | np.ndarray,
+        *,
+        wheel: bool = False,
+        stamp_ns: int | None = None,
+    ) -> None:
+        """nav_msgs/Odometry: pose (x, y, yaw) in odom, twist (v, w) in base_link.
+
+        stamp_ns: header stamp if it differs from the receive time t_ns (latency, clock tests).
+        """
+        self._start(t_ns)
+        x, y, yaw = (float(v) for v in pose)
+        v, w = (float(u) for u in twist)
+        cov = np.zeros(36)
+        msg = self._msg(
+            ODOMETRY,
+            header=self._header(t_ns if stamp_ns is None else stamp_ns, self.frames.odom),
+            child_frame_id=self.frames.base,
+            pose=self._msg(
+                "geometry_msgs/msg/PoseWithCovariance", pose=self._pose(x, y, yaw), covariance=cov
+            ),
+            twist=self._msg(
+                "geometry_msgs/msg/TwistWithCovariance",
+                twist=self._msg(TWIST, linear=self._vector3(v), angular=self._vector3(z=w)),
+                covariance=cov.copy(),
+            ),
+        )
+        topic = self.topics.wheel_odometry if wheel else self.topics.odometry
+        self._write(topic, ODOMETRY, t_ns, msg)
+
+    def write_tf(self, t_ns: int, pose: tuple | np.ndarray) -> None:
+        """tf2_msgs/TFMessage with odom -> base_link at pose (x, y, yaw)."""
+        self._start(t_ns)
+        x, y, yaw = (float(v) for v in pose)
+        tf = self._transform(t_ns, self.frames.odom, self.frames.base, (x, y, 0.0), yaw)
+        self._write(self.topics.tf, TF_MESSAGE, t_ns, self._msg(TF_MESSAGE, transforms=[tf]))
+
+    def write_imu(self, t_ns: int, gyro_w: float, *, stamp_ns: int | None = None) -> None:
+        """sensor_msgs/Imu with angular_velocity.z = gyro_w, rad/s; no orientation estimate."""
+        self._start(t_ns)
+        no_orientation = np.zeros(9)
+        no_orientation[0] = -1.0  # sensor_msgs/Imu convention: orientation not provided
+        msg = self._msg(
+            IMU,
+            header=self._header(t_ns if stamp_ns is None else stamp_ns, self.frames.imu),
+            orientation=self._msg("geometry_msgs/msg/Quaternion", x=0.0, y=0.0, z=0.0, w=1.0),
+            orientation_covariance=no_orientation,
+            angular_velocity=self._vector3(z=gyro_w),
+            angular_velocity_covariance=np.zeros(9),
+            linear_acceleration=self._vector3(),
+            linear_acceleration_covariance=np.zeros(9),
+        )
+        self._write(self.topics.imu, IMU, t_ns, msg)
+
+    def write_cmd(self, t_ns: int, cmd: tuple | np.ndarray) -> None:
+        """geometry_msgs/Twist (v m/s, w rad/s)."""
+        self._start(t_ns)
+        v, w = (float(u) for u in cmd)
+        msg = self._msg(TWIST, linear=self._vector3(v), angular=self._vector3(z=w))
+        self._write(self.topics.cmd_vel, TWIST, t_ns, msg)
+
+    def write_params(self, t_ns: int, params: tuple | np.ndarray) -> None:
+        """std_msgs/Float64MultiArray [wp, wc, ws, tau, action_index]."""
+        self._start(t_ns)
+        data = np.asarray(params, dtype=np.float64).reshape(-1)
+        if data.size != 5:
+            raise BagFormatError(
+                f"{self.path}: planner params need [wp, wc, ws, tau, action_index], got {data.size} values"
+            )
+        dim = self._msg(
+            "std_msgs/msg/MultiArrayDimension", label="wp_wc_ws_tau_action", size=5, stride=5
+        )
+        layout = self._msg("std_msgs/msg/MultiArrayLayout", dim=[dim], data_offset=0)
+        msg = self._msg(FLOAT64_ARRAY, layout=layout, data=data)
+        self._write(self.topics.planner_params, FLOAT64_ARRAY, t_ns, msg)
+
+    def write_step(
+        self,
+        t_ns: int,
+        scan: LaserScan | None,
+        odom_pose: tuple | np.ndarray,
+        odom_twist: tuple | np.ndarray,
+        wheel_pose: tuple | np.ndarray | None = None,
+        wheel_twist: tuple | np.ndarray | None = None,
+        gyro_w: float | None = None,
+        cmd: tuple | np.ndarray | None = None,
+        params: tuple | np.ndarray | None = None,
+    ) -> None:
+        """One control step: odometry (+ tf odom -> base_link), wheel odometry, IMU, scan,
+        command and planner parameters, all at t_ns. None skips that message."""
+        self._start(t_ns)
+        self.write_odometry(t_ns, odom_pose, odom_twist)
+        self.write_tf(t_ns, odom_pose)
+        if wheel_pose is not None and wheel_twist is not None:
+            self.write_odometry(t_ns, wheel_pose, wheel_twist, wheel=True)
+        if gyro_w is not None:
+            self.write_imu(t_ns, gyro_w)
+        if scan is not None:
+            self.write_scan(t_ns, scan)
+        if cmd is not None:
+            self.write_cmd(t_ns, cmd)
+        if params is not None:
+            self.write_params(t_ns, params)
