@@ -13,8 +13,9 @@ Native format (``worlds/*.yaml``)::
       - {type: cylinder, center: [2.0, -0.3], radius: 0.15, height: 0.5}
       - {type: wall, start: [-1, 1], end: [5, 1], thickness: 0.1, height: 0.5}
 
-``yaw`` and ``height`` are optional (defaults 0 rad and 0.5 m). A wall is a box between
-two points. Gazebo SDF ``.world`` files and ROS map_server maps (``.yaml`` with an
+``yaw`` and ``height`` are optional (defaults 0 rad and 0.5 m). A wall is a box from
+``start`` to ``end`` extended by half its thickness at each end, so walls meet at corners.
+Unknown keys are errors (a typo must not silently drop obstacles). Gazebo SDF ``.world`` files and ROS map_server maps (``.yaml`` with an
 ``image`` key) load into the same :class:`World`.
 """
 
@@ -22,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +35,12 @@ from .errors import UnknownNameError, WorldFormatError
 
 DEFAULT_HEIGHT = 0.5
 GROUPS = ("train", "unseen", "real", "custom")
+WORLD_KEYS = {"name", "group", "description", "start", "goal", "time_limit", "obstacles"}
+OBSTACLE_KEYS = {
+    "box": {"type", "center", "size", "yaw", "height"},
+    "cylinder": {"type", "center", "radius", "height"},
+    "wall": {"type", "start", "end", "thickness", "height"},
+}
 #: Kachaka's body box in base_link: centre x, half length, half width (SPEC section 3).
 BODY_CENTER_X, BODY_HALF_LENGTH, BODY_HALF_WIDTH = 0.0435, 0.1935, 0.120
 
@@ -73,7 +80,6 @@ class World:
     time_limit: float | None = None
     source: str = "<memory>"
     """Where the world came from (a path, or a generator description)."""
-    extra: Mapping[str, Any] = field(default_factory=dict)
 
     def with_task(
         self,
@@ -84,8 +90,8 @@ class World:
         """A copy with another start, goal or time limit, re-validated."""
         w = replace(
             self,
-            start=self.start if start is None else tuple(float(v) for v in start),
-            goal=self.goal if goal is None else tuple(float(v) for v in goal),
+            start=self.start if start is None else _vector(start, 3, self.source, "start"),
+            goal=self.goal if goal is None else _vector(goal, 2, self.source, "goal"),
             time_limit=self.time_limit if time_limit is None else float(time_limit),
         )
         validate_task(w)
@@ -213,6 +219,11 @@ def parse_obstacle(spec: Any, where: str) -> Obstacle:
     if not isinstance(spec, Mapping):
         raise WorldFormatError(f"{where}: must be a mapping, got {spec!r}")
     kind = _field(spec, "type", where)
+    allowed = OBSTACLE_KEYS.get(kind)
+    if allowed is not None and set(spec) - allowed:
+        raise WorldFormatError(
+            f"{where}: unknown field(s) {sorted(set(spec) - allowed)} for a {kind}"
+        )
     height = _positive(spec.get("height", DEFAULT_HEIGHT), where, "height")
     if kind == "box":
         size = _vector(_field(spec, "size", where), 2, where, "size")
@@ -253,6 +264,11 @@ def world_from_dict(data: Any, source: str) -> World:
     """Build and validate a World from the native format's mapping."""
     if not isinstance(data, Mapping):
         raise WorldFormatError(f"{source}: top level must be a mapping, got {type(data).__name__}")
+    unknown = set(data) - WORLD_KEYS
+    if unknown:
+        raise WorldFormatError(
+            f"{source}: unknown field(s) {sorted(unknown)}; allowed: {sorted(WORLD_KEYS)}"
+        )
     group = str(data.get("group", "custom"))
     if group not in GROUPS:
         raise WorldFormatError(f"{source}: field 'group' = {group!r} is not one of {GROUPS}")
@@ -321,6 +337,12 @@ def load_world(name_or_path: str | Path) -> World:
         return load_world_file(by_upper[text.upper()])
     if Path(text).suffix:
         return load_world_file(text)
+    from .world_generator import generated_world_from_name
+
+    generated = generated_world_from_name(text)
+    if generated is not None:
+        return generated
     raise UnknownNameError(
-        f"unknown world {text!r}: choose one of {', '.join(paths)} or give a path to a world file"
+        f"unknown world {text!r}: choose one of {', '.join(paths)}, a generated layout such as "
+        "R2-style-s17, or a path to a world file"
     )

@@ -1,0 +1,251 @@
+"""Run one episode: sense -> estimate -> observe -> choose parameters -> plan -> drive.
+
+The loop is the same for every method; only the controller differs. Termination is judged
+on ground truth (a fact about the world, not the robot's belief): goal when base_link is
+within the goal tolerance, collision on a Bullet contact or a true lidar range below the
+collision threshold, timeout at the time limit.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .lidar import LidarParams
+from .methods import Controller
+from .metrics import body_clearance, posture_displacement, trajectory_length
+from .noise import NoiseModel
+from .observation import build_observation, goal_in_body
+from .params import ObservationParams, PlannerParams, SimParams, TerminationParams
+from .planner import PlannerAction, PlanResult, plan
+from .scan import LaserScan, scan_points_body
+from .simulator import Simulator
+from .world import World
+
+LOG_FIELDS = (
+    "t",
+    "x",
+    "y",
+    "yaw",
+    "est_x",
+    "est_y",
+    "est_yaw",
+    "v_cmd",
+    "w_cmd",
+    "action",
+    "wp",
+    "wc",
+    "ws",
+    "tau",
+    "fallback",
+)
+
+
+@dataclass(frozen=True)
+class EpisodeConfig:
+    """Everything an episode needs besides the world, the controller and the seed."""
+
+    sim: SimParams = field(default_factory=SimParams)
+    planner: PlannerParams = field(default_factory=PlannerParams)
+    observation: ObservationParams = field(default_factory=ObservationParams)
+    termination: TerminationParams = field(default_factory=TerminationParams)
+    lidar: LidarParams = field(default_factory=LidarParams)
+
+
+@dataclass
+class EpisodeResult:
+    """Outcome, metrics and the per-step log of one episode."""
+
+    world: str
+    method: str
+    seed: int
+    outcome: str
+    time_s: float
+    tl_m: float
+    pd_rad: float
+    min_clearance_m: float
+    steps: int
+    noise: str = "none"
+    log: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    observations: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)), repr=False)
+
+    def summary(self) -> dict[str, Any]:
+        """The JSON/CSV row: world, method, seed, outcome, time_s, tl_m, pd_rad, min_clearance_m, steps."""
+        return {
+            "world": self.world,
+            "method": self.method,
+            "seed": self.seed,
+            "noise": self.noise,
+            "outcome": self.outcome,
+            "time_s": round(self.time_s, 3),
+            "tl_m": round(self.tl_m, 4),
+            "pd_rad": round(self.pd_rad, 4),
+            "min_clearance_m": round(self.min_clearance_m, 4),
+            "steps": self.steps,
+        }
+
+
+class Episode:
+    """One episode as a stepping object: ``observe()`` then ``act(...)`` until ``outcome``.
+
+    ``observe`` senses, judges termination on ground truth, and (if the episode goes on)
+    builds the observation from the estimate; ``act`` plans with the given parameters and
+    drives one control period. ``run_episode``, the Gymnasium env and the bag recorder all
+    run this same loop.
+    """
+
+    def __init__(
+        self,
+        world: World,
+        seed: int = 0,
+        noise: NoiseModel | None = None,
+        noise_name: str = "none",
+        config: EpisodeConfig = EpisodeConfig(),
+        gui: bool = False,
+    ):
+        self.world, self.seed, self.noise_name, self.config = world, seed, noise_name, config
+        limit = world.time_limit if world.time_limit is not None else config.termination.time_limit
+        self.max_steps = int(round(limit * config.sim.control_hz))
+        self.sim = Simulator(
+            world,
+            sim=config.sim,
+            limits=config.planner.limits,
+            lidar=config.lidar,
+            noise=noise,
+            gui=gui,
+        )
+        self.outcome: str | None = None
+        self.rows: list[tuple] = []
+        self.observations: list[np.ndarray] = []
+        self.truth: list[tuple[float, float, float]] = []
+        self.scan: LaserScan | None = None
+        self.points = np.zeros((0, 2))
+        self.obs = np.zeros(config.observation.dim)
+        self.estimate: tuple[tuple[float, float, float], tuple[float, float]] = (
+            (0.0, 0.0, 0.0),
+            (0.0, 0.0),
+        )
+        self.goal_distance = math.inf
+        """Ground-truth distance from base_link to the goal at the last observe(), m."""
+        self.obstacle_distance = math.inf
+        """Smallest true valid lidar range at the last observe(), m (inf if none)."""
+        self.last_plan = None
+
+    def observe(self) -> np.ndarray:
+        """Sense and judge termination; returns the (12,) observation (the last one if over)."""
+        sim, term, cfg = self.sim, self.config.termination, self.config
+        pose = sim.true_pose()
+        self.truth.append(pose)
+        scan, true_ranges = sim.sense()
+        valid = true_ranges[np.isfinite(true_ranges) & (true_ranges >= cfg.lidar.range_min)]
+        self.goal_distance = math.hypot(self.world.goal[0] - pose[0], self.world.goal[1] - pose[1])
+        self.obstacle_distance = float(valid.min()) if valid.size else math.inf
+        if self.goal_distance <= term.goal_tolerance:
+            self.outcome = "goal"
+        elif sim.in_contact() or self.obstacle_distance < term.collision_distance:
+            self.outcome = "collision"
+        elif sim.step_count >= self.max_steps:
+            self.outcome = "timeout"
+        self.scan = scan
+        self.points = scan_points_body(scan, cfg.lidar.mount)
+        self.estimate = sim.estimate()
+        est_pose, est_vel = self.estimate
+        self.obs = build_observation(
+            est_pose, est_vel, self.world.goal, self.points, cfg.observation, cfg.planner.limits
+        )
+        return self.obs
+
+    def act(self, index: int, action: PlannerAction) -> PlanResult:
+        """Plan with action's weights and horizon, and drive one control period."""
+        if self.outcome is not None:
+            raise RuntimeError(
+                f"episode is over ({self.outcome}); call observe() only before it ends"
+            )
+        est_pose, est_vel = self.estimate
+        result = plan(
+            est_vel,
+            self.points,
+            goal_in_body(est_pose, self.world.goal),
+            action,
+            self.config.planner,
+        )
+        t = self.sim.time
+        self.sim.step(result.v, result.w)
+        self.observations.append(self.obs)
+        self.rows.append(
+            (
+                t,
+                *self.truth[-1],
+                *est_pose,
+                result.v,
+                result.w,
+                index,
+                *action,
+                float(result.fallback),
+            )
+        )
+        self.last_plan = result
+        return result
+
+    def result(self, method: str) -> EpisodeResult:
+        """Metrics and log of the steps so far."""
+        poses = np.asarray(self.truth)
+        log = {name: np.asarray([r[i] for r in self.rows]) for i, name in enumerate(LOG_FIELDS)}
+        clearance = (
+            body_clearance(self.world, poses) if self.world.obstacles else np.array([np.inf])
+        )
+        steps = self.sim.step_count
+        return EpisodeResult(
+            world=self.world.name,
+            method=method,
+            seed=self.seed,
+            outcome=self.outcome or "timeout",
+            time_s=steps * self.config.sim.control_period,
+            tl_m=trajectory_length(poses[:, :2]),
+            pd_rad=posture_displacement(poses[:, 2]),
+            min_clearance_m=float(clearance.min()),
+            steps=steps,
+            noise=self.noise_name,
+            log=log | {"true_x": poses[:, 0], "true_y": poses[:, 1], "true_yaw": poses[:, 2]},
+            observations=np.asarray(self.observations).reshape(-1, self.config.observation.dim),
+        )
+
+    def close(self) -> None:
+        self.sim.close()
+
+    def __enter__(self) -> Episode:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+#: Called after each decision, before the robot moves: (episode, action index, action, plan).
+StepHook = Callable[["Episode", int, PlannerAction, PlanResult], None]
+
+
+def run_episode(
+    world: World,
+    controller: Controller,
+    seed: int = 0,
+    noise: NoiseModel | None = None,
+    noise_name: str = "none",
+    config: EpisodeConfig = EpisodeConfig(),
+    gui: bool = False,
+    on_step: StepHook | None = None,
+) -> EpisodeResult:
+    """Run one episode to goal, collision or timeout and return its metrics and log."""
+    with Episode(world, seed, noise, noise_name, config, gui) as ep:
+        while True:
+            obs = ep.observe()
+            if ep.outcome is not None:
+                break
+            index, action = controller(obs)
+            result = ep.act(index, action)
+            if on_step is not None:
+                on_step(ep, index, action, result)
+        return ep.result(controller.name)

@@ -1,0 +1,87 @@
+"""The methods every command and table knows, by their stable names (SPEC section 6).
+
+A *controller* maps an observation to the DWA parameters of one control step; the planner
+then does the rest. Fixed baselines return constants; learned methods run a greedy policy
+loaded from a checkpoint directory (``policies/<name>/`` by default, or ``--policy PATH``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import REPO_ROOT
+from .actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
+from .errors import CheckpointError, UnknownNameError
+from .planner import PlannerAction
+
+POLICIES_DIR = REPO_ROOT / "policies"
+
+FIXED: dict[str, PlannerAction] = {
+    "dwa1": PlannerAction(1.0, 1.0, 2.0, 4.0),
+    "dwa2": PlannerAction(1.0, 2.0, 1.0, 4.0),
+    "dwa3": PlannerAction(2.0, 1.0, 1.0, 4.0),
+}
+#: Learned methods and the action set their policy must have.
+LEARNED: dict[str, ActionSet] = {
+    "dqdwa": ACTIONS_WEIGHTS_ONLY,
+    "d3dwa-weights": ACTIONS_WEIGHTS_ONLY,
+    "d3dwa": ACTIONS_FULL,
+    "d3dwa-dr": ACTIONS_FULL,
+}
+METHODS = tuple(FIXED) + tuple(LEARNED)
+LABELS = {
+    "dwa1": "DWA I (1,1,2)",
+    "dwa2": "DWA II (1,2,1)",
+    "dwa3": "DWA III (2,1,1)",
+    "dqdwa": "DQDWA",
+    "d3dwa-weights": "D3DWA (w/o horizon)",
+    "d3dwa": "D3DWA",
+    "d3dwa-dr": "D3DWA (randomised)",
+}
+
+
+@dataclass
+class Controller:
+    """Chooses (action index, PlannerAction) from an observation; index -1 for fixed methods."""
+
+    name: str
+    fixed: PlannerAction | None = None
+    policy: object | None = None
+    actions: ActionSet | None = None
+    source: str = ""
+
+    def __call__(self, obs: np.ndarray) -> tuple[int, PlannerAction]:
+        if self.fixed is not None:
+            return -1, self.fixed
+        index = int(self.policy(obs))  # type: ignore[misc]
+        return index, self.actions.decode(index)  # type: ignore[union-attr]
+
+
+def check_method(name: str) -> str:
+    if name not in METHODS:
+        raise UnknownNameError(f"unknown method {name!r}: choose one of {', '.join(METHODS)}")
+    return name
+
+
+def default_policy_path(name: str) -> Path:
+    return POLICIES_DIR / name
+
+
+def make_controller(name: str, policy_path: str | Path | None = None) -> Controller:
+    """The controller of a method; learned ones load their policy (CheckpointError if absent)."""
+    check_method(name)
+    if name in FIXED:
+        return Controller(name, fixed=FIXED[name], source="fixed")
+    from .agents.policy import load_policy
+
+    path = Path(policy_path) if policy_path is not None else default_policy_path(name)
+    if not path.exists():
+        raise CheckpointError(
+            f"{path}: no policy for method {name!r}; train one with `d3dwa train --method {name}` "
+            "or pass --policy PATH"
+        )
+    policy, actions, _ = load_policy(path, expected_actions=LEARNED[name])
+    return Controller(name, policy=policy, actions=actions, source=str(path))
