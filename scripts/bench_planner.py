@@ -18,8 +18,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-from d3dwa_bullet.lidar import LidarParams
 
+from d3dwa_bullet.lidar import LidarParams
 from d3dwa_bullet.params import PlannerParams
 from d3dwa_bullet.planner import PlannerAction, plan
 
@@ -42,7 +42,11 @@ def bench(n: int, seed: int, tau: float) -> dict:
     params = PlannerParams()
     action = PlannerAction(1.0, 1.0, 1.0, tau)
     scenes = [
-        (random_scene(rng, lidar.beams), (rng.uniform(0, 0.4), rng.uniform(-1, 1)), rng.uniform(-1, 4, 2))
+        (
+            random_scene(rng, lidar.beams),
+            (rng.uniform(0, 0.4), rng.uniform(-1, 1)),
+            rng.uniform(-1, 4, 2),
+        )
         for _ in range(n)
     ]
     plan(scenes[0][1], scenes[0][0], scenes[0][2], action, params)  # warm-up
@@ -74,7 +78,9 @@ def check(n: int, seed: int) -> dict:
         pts = random_scene(rng, beams)
         vel = (rng.uniform(0, 0.4), rng.uniform(-2, 2))
         goal = rng.uniform(-1, 4, 2)
-        action = PlannerAction(*(float(w) for w in rng.choice([1, 2, 3], 3)), float(rng.choice([2, 3, 4, 5])))
+        action = PlannerAction(
+            *(float(w) for w in rng.choice([1, 2, 3], 3)), float(rng.choice([2, 3, 4, 5]))
+        )
         fast = plan(vel, pts, goal, action, params)
         _, _, ref_index, ref_clear, _ = reference_plan(vel, pts, goal, action, params)
         same += int(ref_index == fast.index)
@@ -91,7 +97,9 @@ def check(n: int, seed: int) -> dict:
     }
 
 
-def _continuous_clearance(sample: np.ndarray, pts: np.ndarray, tau: float, params: PlannerParams) -> float:
+def _continuous_clearance(
+    sample: np.ndarray, pts: np.ndarray, tau: float, params: PlannerParams
+) -> float:
     """Clearance of one sample with no lattice: exact circle-centre-to-point distances."""
     v, w = sample
     t = params.dt * np.arange(1, int(round(tau / params.dt)) + 1)
@@ -107,11 +115,19 @@ def _continuous_clearance(sample: np.ndarray, pts: np.ndarray, tau: float, param
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("--scenes", type=int, default=500, help="timed planning steps")
     ap.add_argument("--tau", type=float, default=5.0, help="prediction horizon, s")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--check", type=int, default=0, metavar="N", help="also compare with the reference on N scenes")
+    ap.add_argument(
+        "--check",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also compare with the reference on N scenes",
+    )
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args()
     out = bench(args.scenes, args.seed, args.tau)
