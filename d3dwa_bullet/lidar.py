@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from operator import itemgetter
 
 import numpy as np
 import pybullet as p
@@ -54,34 +55,30 @@ class LidarParams:
 
 
 class Lidar:
-    """Casts the beams of one robot in one PyBullet client."""
+    """Casts the beams of one robot in one PyBullet client.
 
-    def __init__(self, client: int, robot: int, params: LidarParams = LidarParams()):
-        self.client, self.robot, self.params = client, robot, params
+    Rays are given in the lidar link's own frame (``parentObjectUniqueId`` /
+    ``parentLinkIndex``), so Bullet places them from the link's current pose and the ray
+    lists are built once. The lidar sits above the body, so no beam can hit the robot.
+    """
+
+    def __init__(self, client: int, robot: int, link: int, params: LidarParams = LidarParams()):
+        self.client, self.robot, self.link, self.params = client, robot, link, params
         a = params.angles()
-        self._dirs = np.column_stack((np.cos(a), np.sin(a)))  # lidar frame, unit
+        self._from = [[0.0, 0.0, 0.0]] * len(a)
+        self._to = (
+            params.range_max * np.column_stack((np.cos(a), np.sin(a), np.zeros(len(a))))
+        ).tolist()
 
-    def ranges(self, pose: tuple[float, float, float], base_z: float) -> np.ndarray:
-        """True ranges from base_link pose (x, y, yaw) and its height: (beams,) float64, m.
-
-        A beam with no hit within range_max reads +inf; hits on the robot itself are ignored.
-        """
-        prm = self.params
-        x, y, yaw = pose
-        c, s = math.cos(yaw), math.sin(yaw)
-        ox = x + c * prm.mount_x - s * prm.mount_y
-        oy = y + s * prm.mount_x + c * prm.mount_y
-        oz = base_z + prm.mount_z
-        dx = c * self._dirs[:, 0] - s * self._dirs[:, 1]
-        dy = s * self._dirs[:, 0] + c * self._dirs[:, 1]
-        n = len(dx)
-        start = np.column_stack((np.full(n, ox), np.full(n, oy), np.full(n, oz)))
-        end = start + prm.range_max * np.column_stack((dx, dy, np.zeros(n)))
-        hits = p.rayTestBatch(start.tolist(), end.tolist(), physicsClientId=self.client)
-        uid = np.fromiter((h[0] for h in hits), dtype=np.int64, count=n)
-        frac = np.fromiter((h[2] for h in hits), dtype=np.float64, count=n)
-        out = frac * prm.range_max
-        out[(uid < 0) | (uid == self.robot)] = np.inf
+    def ranges(self) -> np.ndarray:
+        """True ranges at the link's current pose: (beams,) float64, m; +inf where no hit."""
+        hits = p.rayTestBatch(
+            self._from, self._to, parentObjectUniqueId=self.robot, parentLinkIndex=self.link,
+            physicsClientId=self.client,
+        )  # fmt: skip
+        frac = np.fromiter(map(itemgetter(2), hits), dtype=np.float64, count=len(self._to))
+        out = frac * self.params.range_max
+        out[frac >= 1.0] = np.inf
         return out
 
     def scan(self, ranges: np.ndarray, stamp_ns: int) -> LaserScan:

@@ -21,8 +21,11 @@ Design choices (SPEC section 4 leaves them open):
   cells, more than the whole planning budget). Against continuous geometry the
   snapping costs at most res / sqrt(2) per end (1.4 cm at 2 cm cells); ``scripts/
   bench_planner.py`` reports the measured figure.
-* Fallback when nothing is admissible: brake as hard as the window allows and turn toward
-  the goal; ``PlanResult.fallback`` flags it.
+* Fallback when nothing is admissible: the sample with the largest clearance over its whole
+  horizon (ties to the slowest), i.e. stop, rotate in place or creep, whichever keeps the
+  body farthest from what the lidar sees. Blindly turning toward the goal, tried first,
+  swung the body's front corner into the obstacle that had boxed the robot in (TS3, TS4).
+  ``PlanResult.fallback`` flags it.
 * Ties in J go to the lowest flat sample index (v-major, then w), like ``numpy.argmax``.
 """
 
@@ -39,6 +42,11 @@ from .params import PlannerParams
 from .scan import check_points
 
 cv2.setNumThreads(1)
+
+#: Admissible means clearance > r + m + TIE_TOLERANCE. Lattice clearances are sqrt(n) * res,
+#: so a trajectory exactly 10 cells (= r + m) away is common; rounding (float32 field vs
+#: float64 maths) must not decide it. The next lattice value above 0.2 m is 0.201 m.
+TIE_TOLERANCE = 1e-6
 
 
 class PlannerAction(NamedTuple):
@@ -257,6 +265,7 @@ def plan(
         & (cells[:, 0] <= box[2])
         & (cells[:, 1] <= box[3])
     )
+    field = None
     if not inside.any():
         clearance = np.full(n_s, cap)
     else:
@@ -270,27 +279,31 @@ def plan(
         )
         field = _distance_field(cells, box, res)
         inv = 1.0 / res
-        clearance = np.empty(n_s)
-        _sample_clearance(
-            field.dist,
-            field.width,
+        tables = (
             vs,
             ux * inv,
             uy * inv,
             off_x * inv - field.i0 + 0.5,
             off_y * inv - field.j0 + 0.5,
-            params.admissible_clearance,
-            clearance,
+        )
+        clearance = np.empty(n_s)
+        _sample_clearance(
+            field.dist, field.width, *tables, params.admissible_clearance + TIE_TOLERANCE, clearance
         )
         np.minimum(clearance, cap, out=clearance)
 
-    admissible = clearance > params.admissible_clearance
+    admissible = clearance > params.admissible_clearance + TIE_TOLERANCE
     scores, best = select(progress, clearance, speed, admissible, action)
     if best >= 0:
         v_cmd, w_cmd, fallback = float(samples[best, 0]), float(samples[best, 1]), False
     else:
-        turn = math.copysign(params.limits.w_max, math.atan2(gy, gx))
-        v_cmd, w_cmd, fallback = float(vs[0]), float(np.clip(turn, ws[0], ws[-1])), True
+        # Nothing is admissible: take the least-bad motion, the sample that stays farthest
+        # from every scan point over its whole horizon (the early exit above left only
+        # upper bounds, so those are recomputed in full). Ties go to the slowest sample.
+        full = np.empty(n_s)
+        _sample_clearance(field.dist, field.width, *tables, -np.inf, full)  # type: ignore[union-attr]
+        safest = int(np.argmax(full))
+        v_cmd, w_cmd, fallback = float(samples[safest, 0]), float(samples[safest, 1]), True
     return PlanResult(
         v=v_cmd,
         w=w_cmd,

@@ -50,15 +50,17 @@ def bench(n: int, seed: int, tau: float) -> dict:
         for _ in range(n)
     ]
     plan(scenes[0][1], scenes[0][0], scenes[0][2], action, params)  # warm-up
-    times = []
+    times, cpu = [], []
     for pts, vel, goal in scenes:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         plan(vel, pts, goal, action, params)
         times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
     ms = np.asarray(times) * 1e3
     return {
         "median_ms": round(float(np.median(ms)), 3),
         "p95_ms": round(float(np.percentile(ms, 95)), 3),
+        "cpu_mean_ms": round(float(np.mean(cpu)) * 1e3, 3),
         "samples": params.n_v * params.n_w,
         "horizon_s": tau,
         "beams": lidar.beams,

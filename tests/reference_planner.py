@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from d3dwa_bullet.params import PlannerParams
-from d3dwa_bullet.planner import PlannerAction, dynamic_window
+from d3dwa_bullet.planner import TIE_TOLERANCE, PlannerAction, dynamic_window
 
 
 def reference_plan(
@@ -46,7 +46,7 @@ def reference_plan(
             progress = math.hypot(goal[0], goal[1]) - math.hypot(goal[0] - x, goal[1] - y)
             rows.append((v, w, progress, clear, abs(v)))
     arr = np.array(rows)
-    admissible = arr[:, 3] > params.admissible_clearance
+    admissible = arr[:, 3] > params.admissible_clearance + TIE_TOLERANCE
 
     def norm(col):
         out = np.zeros(len(arr))

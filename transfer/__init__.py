@@ -9,7 +9,7 @@ names, and ``compare`` sets two bags' scans side by side, sector by sector.
 from .bag_reader import BagData, read_bag
 from .bag_writer import BagRecorder, quantize_scan
 from .compare import compare_scans, format_scan_comparison
-from .replay import ReplayResult, ScanStep, StepOutput, observe_only, replay_bag
+from .replay import ReplayResult, ScanStep, SkipScan, StepOutput, observe_only, replay_bag
 from .topics import TopicMap, TopicResolution, resolve_topics
 
 __all__ = [
@@ -17,6 +17,7 @@ __all__ = [
     "BagRecorder",
     "ReplayResult",
     "ScanStep",
+    "SkipScan",
     "StepOutput",
     "TopicMap",
     "TopicResolution",

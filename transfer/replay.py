@@ -39,6 +39,10 @@ from .topics import TopicMap
 SKIP_BEFORE_ODOMETRY = "before first odometry sample"
 SKIP_AFTER_ODOMETRY = "after last odometry sample"
 SKIP_NO_VALID_BEAM = "all beams invalid"
+#: A scan without a valid return is still replayed when at least this fraction of its beams
+#: read +inf: REP-117 "no return within range", i.e. open space (every sector reads 1.0, as
+#: in the simulator). Fewer, among NaN / 0 / -inf / out-of-range readings, is a broken scan.
+MIN_NO_RETURN_FRACTION = 0.5
 
 CSV_COLUMNS = (
     ("stamp_ns", "t", "x", "y", "yaw", "v", "w")
@@ -91,6 +95,14 @@ class StepOutput:
 
 
 StepFn = Callable[[ScanStep], StepOutput | Mapping[str, Any]]
+
+
+class SkipScan(Exception):
+    """Raised by a step function to skip one scan; counted in ``skipped`` under ``reason``."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
 
 
 def observe_only(step: ScanStep) -> StepOutput:
@@ -197,6 +209,13 @@ def _vec(value: Any, n: int) -> np.ndarray:
     return arr
 
 
+def _informative(scan: LaserScan) -> bool:
+    """True if the scan has a valid return, or is mostly +inf (open space)."""
+    if scan.valid_mask().any():
+        return True
+    return np.isposinf(scan.ranges).mean() >= MIN_NO_RETURN_FRACTION
+
+
 def _write_json(path: Path, data: dict[str, Any]) -> None:
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(json.dumps(data, indent=2, allow_nan=True) + "\n")
@@ -221,20 +240,29 @@ def replay_bag(
     topics, mount, clock: see ``read_bag``. max_command_gap: a recorded command or planner
     parameter counts as "at" a scan if within this many seconds of it.
     Scans that cannot be replayed (corrupt, zero beams, no valid beam, outside the odometry
-    span) are counted in ``skipped`` by reason. An exception from step_fn propagates after
-    the rows so far are on disk and summary.json says "failed".
+    span, or rejected by step_fn raising ``SkipScan``) are counted in ``skipped`` by reason.
+    An exception from step_fn propagates after the rows so far are on disk and summary.json
+    says "failed"; a bag that cannot be read at all leaves a "failed" summary.json too.
     """
-    bag = read_bag(bag_path, topics=topics, mount=mount, clock=clock)
-    if bag.odometry is None:
-        raise BagFormatError(
-            f"{bag.path}: no odometry: neither {bag.topics['odometry'] or TopicMap().odometry!r} "
-            f"nor {bag.topics['wheel_odometry'] or TopicMap().wheel_odometry!r} has a message"
-        )
-    if goal is not None:
-        goal_xy = np.asarray(goal, dtype=np.float64).reshape(2)
-        goal_source = "argument (odometry frame)"
-    else:
-        goal_xy, goal_source = first_goal(bag)
+    try:
+        bag = read_bag(bag_path, topics=topics, mount=mount, clock=clock)
+        if bag.odometry is None:
+            raise BagFormatError(
+                f"{bag.path}: no odometry: neither "
+                f"{bag.topics['odometry'] or TopicMap().odometry!r} nor "
+                f"{bag.topics['wheel_odometry'] or TopicMap().wheel_odometry!r} has a message"
+            )
+        if goal is not None:
+            goal_xy = np.asarray(goal, dtype=np.float64).reshape(2)
+            goal_source = "argument (odometry frame)"
+        else:
+            goal_xy, goal_source = first_goal(bag)
+    except BagFormatError as err:
+        if out_dir is not None:  # say why nothing was replayed, where the results would be
+            Path(out_dir).mkdir(parents=True, exist_ok=True)
+            status = {"bag": str(bag_path), "status": f"failed: {err}", "scans": 0, "replayed": 0}
+            _write_json(Path(out_dir) / "summary.json", status)
+        raise
 
     result = ReplayResult(
         bag=bag.path,
@@ -310,7 +338,7 @@ def _run(
     skip_reason = {-1: SKIP_BEFORE_ODOMETRY, 1: SKIP_AFTER_ODOMETRY}
     for k, scan in enumerate(bag.scans):
         reason = skip_reason.get(int(where[k]))
-        if reason is None and not scan.valid_mask().any():
+        if reason is None and not _informative(scan):
             reason = SKIP_NO_VALID_BEAM
         if reason is not None:
             result.skipped[reason] = result.skipped.get(reason, 0) + 1
@@ -325,7 +353,11 @@ def _run(
             wheel_twist=None if wheel is None else wheel[k].copy(),
             imu_w=None if math.isnan(gyro[k]) else float(gyro[k]),
         )
-        decided = _as_output(step_fn(step))
+        try:
+            decided = _as_output(step_fn(step))
+        except SkipScan as skip:
+            result.skipped[skip.reason] = result.skipped.get(skip.reason, 0) + 1
+            continue
         row = ReplayRow(
             stamp_ns=int(times[k]),
             t=(int(times[k]) - t0) / 1e9,

@@ -1,0 +1,169 @@
+"""The DWA planner: window, criteria, normalisation, admissibility, and the brute-force check."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from reference_planner import reference_plan
+
+from d3dwa_bullet.errors import ConfigError, ScanError
+from d3dwa_bullet.params import PlannerParams, RobotLimits
+from d3dwa_bullet.planner import (
+    PlannerAction,
+    dynamic_window,
+    normalise,
+    plan,
+    rollout_steps,
+    unit_arcs,
+)
+
+SMALL = PlannerParams(n_v=5, n_w=9)
+ACTION = PlannerAction(1.0, 1.0, 1.0, 2.0)
+
+
+def ring(radius: float, n: int = 240, centre=(0.0, 0.0)) -> np.ndarray:
+    a = np.linspace(-math.pi, math.pi, n, endpoint=False)
+    return np.column_stack((centre[0] + radius * np.cos(a), centre[1] + radius * np.sin(a)))
+
+
+@pytest.mark.parametrize(
+    ("v0", "w0", "expected"),
+    [
+        (0.0, 0.0, (0.0, 0.2, -0.3, 0.3)),
+        (0.4, 0.0, (0.2, 0.4, -0.3, 0.3)),
+        (0.1, 1.9, (0.0, 0.3, 1.6, 2.0)),
+        (0.3, -2.0, (0.1, 0.4, -2.0, -1.7)),
+    ],
+)
+def test_dynamic_window_respects_accelerations_and_limits(v0, w0, expected):
+    assert dynamic_window(v0, w0, PlannerParams()) == pytest.approx(expected)
+
+
+def test_window_never_allows_reverse_or_overspeed():
+    lim = RobotLimits()
+    for v0 in np.linspace(0, 0.4, 9):
+        for w0 in np.linspace(-2, 2, 9):
+            v_lo, v_hi, w_lo, w_hi = dynamic_window(v0, w0, PlannerParams())
+            assert 0.0 <= v_lo <= v_hi <= lim.v_max
+            assert -lim.w_max <= w_lo <= w_hi <= lim.w_max
+
+
+def test_unit_arcs_match_closed_form_and_straight_line():
+    t = rollout_steps(4.0, 0.1)
+    assert len(t) == 40 and t[-1] == pytest.approx(4.0)
+    x, y, c, s = unit_arcs(np.array([0.0, 0.5]), t)
+    assert x[0] == pytest.approx(t) and y[0] == pytest.approx(0.0)
+    assert x[1] == pytest.approx(np.sin(0.5 * t) / 0.5)
+    assert y[1] == pytest.approx((1 - np.cos(0.5 * t)) / 0.5)
+    assert c[1] == pytest.approx(np.cos(0.5 * t)) and s[1] == pytest.approx(np.sin(0.5 * t))
+
+
+def test_normalise_maps_admissible_set_to_unit_interval_and_constant_to_zero():
+    vals = np.array([1.0, 3.0, 5.0, 100.0])
+    mask = np.array([True, True, True, False])
+    assert normalise(vals, mask) == pytest.approx([0.0, 0.5, 1.0, 0.0])
+    assert normalise(np.full(4, 2.0), mask) == pytest.approx(0.0)
+    assert normalise(vals, np.zeros(4, bool)) == pytest.approx(0.0)
+
+
+def test_open_space_goes_straight_at_the_goal_with_progress_weight():
+    res = plan((0.4, 0.0), np.zeros((0, 2)), (3.0, 0.0), PlannerAction(3.0, 1.0, 1.0, 4.0))
+    half_step = 0.5 * 0.6 / (PlannerParams().n_w - 1)  # the w grid has no exact 0 (40 samples)
+    assert not res.fallback and res.v == pytest.approx(0.4) and abs(res.w) <= half_step + 1e-12
+    assert res.admissible.all() and res.clearance == pytest.approx(PlannerParams().clearance_cap)
+
+
+def test_goal_to_the_left_turns_left():
+    res = plan((0.2, 0.0), np.zeros((0, 2)), (0.5, 2.0), PlannerAction(3.0, 1.0, 1.0, 2.0))
+    assert res.w > 0
+
+
+def test_obstacle_dead_ahead_is_never_chosen_into():
+    wall = np.column_stack((np.full(50, 0.45), np.linspace(-1, 1, 50)))
+    res = plan((0.3, 0.0), wall, (3.0, 0.0), PlannerAction(1.0, 1.0, 3.0, 4.0))
+    # Straight on at any speed would bring the front circle within r + m of the wall.
+    straight = np.abs(res.samples[:, 1]) < 1e-9
+    assert not res.admissible[straight & (res.samples[:, 0] > 0.05)].any()
+    if not res.fallback:
+        assert res.clearance[res.index] > PlannerParams().admissible_clearance
+
+
+def test_boxed_in_robot_falls_back_to_the_safest_motion_and_says_so():
+    # A ring of points 0.25 m away with a bite taken out of its right: nothing is admissible,
+    # the safest motion is to stop and turn away from the near side, whatever the goal says.
+    pts = ring(0.25)
+    pts = np.vstack((pts[pts[:, 1] > -0.05], [[0.12, -0.19]]))
+    res = plan((0.0, 0.0), pts, (0.5, -2.0), ACTION)
+    assert res.fallback and res.index == -1 and not res.admissible.any()
+    assert np.isneginf(res.scores).all()
+    assert res.v == 0.0
+
+
+def test_scores_are_weighted_sum_of_normalised_criteria():
+    pts = ring(1.0, centre=(1.5, 0.5))
+    a = PlannerAction(2.0, 3.0, 1.0, 3.0)
+    res = plan((0.2, 0.1), pts, (3.0, 0.0), a)
+    m = res.admissible
+    expected = (
+        a.wp * normalise(res.progress, m)
+        + a.wc * normalise(res.clearance, m)
+        + a.ws * normalise(res.speed, m)
+    )
+    assert res.scores[m] == pytest.approx(expected[m])
+    assert res.index == int(np.argmax(np.where(m, expected, -np.inf)))
+
+
+@pytest.mark.parametrize(
+    "bad", [np.array([[np.nan, 1.0]]), np.array([[1.0, np.inf]]), np.zeros((3, 3))]
+)
+def test_non_finite_or_misshapen_points_raise_scan_error(bad):
+    with pytest.raises(ScanError):
+        plan((0.0, 0.0), bad, (1.0, 0.0), ACTION)
+
+
+def test_bad_planner_params_raise_config_error():
+    with pytest.raises(ConfigError, match="n_v"):
+        PlannerParams(n_v=0)
+    with pytest.raises(ConfigError, match="grid_resolution"):
+        PlannerParams(grid_resolution=0.0)
+
+
+def _random_scene(rng):
+    a = np.deg2rad(np.arange(-120, 120.01, 2.0))
+    r = np.full(a.shape, rng.uniform(1.0, 3.0))
+    for _ in range(int(rng.integers(1, 6))):
+        c, half, d = rng.uniform(-2, 2), rng.uniform(0.05, 0.4), rng.uniform(0.3, 2.0)
+        r = np.where(np.abs(a - c) < half, np.minimum(r, d), r)
+    return np.column_stack((0.156 + r * np.cos(a), r * np.sin(a)))
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_fast_planner_matches_brute_force_reference(seed):
+    rng = np.random.default_rng(seed)
+    params = PlannerParams(n_v=6, n_w=11)
+    pts = _random_scene(rng)
+    vel = (rng.uniform(0, 0.4), rng.uniform(-2, 2))
+    goal = rng.uniform(-1, 4, 2)
+    action = PlannerAction(
+        *(float(w) for w in rng.choice([1, 2, 3], 3)), float(rng.choice([2, 3, 4, 5]))
+    )
+    fast = plan(vel, pts, goal, action, params)
+    v, w, index, clearance, admissible = reference_plan(vel, pts, goal, action, params)
+    assert fast.index == index
+    assert (fast.admissible == admissible).all()
+    # Clearance equals the reference wherever it is reported in full (admissible samples).
+    assert np.abs(fast.clearance[admissible] - clearance[admissible]).max(initial=0.0) < 1e-6
+    if index >= 0:
+        assert (fast.v, fast.w) == pytest.approx((v, w))
+
+
+def test_fast_planner_matches_reference_at_full_size():
+    rng = np.random.default_rng(99)
+    pts = _random_scene(rng)
+    action = PlannerAction(1.0, 2.0, 1.0, 2.0)
+    fast = plan((0.2, 0.3), pts, (2.0, 1.0), action)
+    _, _, index, clearance, admissible = reference_plan((0.2, 0.3), pts, (2.0, 1.0), action)
+    assert fast.index == index and (fast.admissible == admissible).all()
+    assert np.abs(fast.clearance[admissible] - clearance[admissible]).max() < 1e-6
