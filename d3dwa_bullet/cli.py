@@ -50,6 +50,15 @@ def load_task_world(args: argparse.Namespace):
     return world
 
 
+def episode_config(args: argparse.Namespace):
+    """EpisodeConfig from --physics-hz / --control-hz (checked: physics must divide evenly)."""
+    from .episode import EpisodeConfig
+    from .params import PlannerParams, SimParams
+
+    sim = SimParams(physics_hz=args.physics_hz, control_hz=args.control_hz)
+    return EpisodeConfig(sim=sim, planner=PlannerParams(control_period=sim.control_period))
+
+
 def cmd_worlds(args: argparse.Namespace) -> int:
     from .world import list_worlds
 
@@ -71,11 +80,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     from .evaluation import make_noise
     from .methods import LABELS, make_controller
 
+    config = episode_config(args)
     world = load_task_world(args)
     controller = make_controller(args.method, args.policy)
     result = run_episode(
         world, controller, seed=args.seed, noise=make_noise(args.noise, args.seed),
-        noise_name=args.noise, gui=args.gui,
+        noise_name=args.noise, config=config, gui=args.gui,
     )  # fmt: skip
     if args.plot:
         from .plotting import trajectory_figure
@@ -126,6 +136,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from .table import paper_table, success_table
     from .world import load_world
 
+    config = episode_config(args)
     methods = [
         check_method(m) for m in (split_list(args.methods) if args.methods else default_methods())
     ]
@@ -143,7 +154,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     ]  # fmt: skip
     out = Path(args.out)
     workers = args.workers or os.cpu_count() or 1
-    rows = evaluate(jobs, out, workers=workers, progress=not args.json)
+    rows = evaluate(jobs, out, workers=workers, config=config, progress=not args.json)
     names = [w.name for w in worlds]
     table = (
         f"# Evaluation: {', '.join(names)}\n\nNoise profile: `{args.noise}`; seeds: {seeds[0]}..{seeds[-1]}.\n\n"
@@ -187,6 +198,10 @@ def build_parser() -> argparse.ArgumentParser:
             help="checkpoint directory for a learned method (default: policies/<method>)",
         )
         p.add_argument("--json", action="store_true", help="print JSON instead of text")
+        p.add_argument(
+            "--physics-hz", type=int, default=240, help="physics rate (multiple of --control-hz)"
+        )
+        p.add_argument("--control-hz", type=int, default=10, help="control (planning) rate")
 
     p = sub.add_parser("run", help="run one episode")
     p.add_argument("--world", required=True, help="world name (see `d3dwa worlds`) or a world file")

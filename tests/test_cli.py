@@ -127,6 +127,20 @@ def test_eval_writes_results_table_and_figures(tiny_world, tmp_path, capsys):
         (["run", "--world", "TS1", "--method", "dwa1", "--start", "1,2"], "--start"),
         (["run", "--world", "TS1", "--method", "dwa1", "--noise", "bogus"], "bogus"),
         (["eval", "--methods", "dwa1", "--worlds", "TS1", "--seeds", "0"], "--seeds"),
+        (
+            [
+                "run",
+                "--world",
+                "TS1",
+                "--method",
+                "dwa1",
+                "--physics-hz",
+                "240",
+                "--control-hz",
+                "7",
+            ],
+            "not divisible",
+        ),
     ],
 )
 def test_bad_input_exits_2_with_one_line(args, message, capsys):
