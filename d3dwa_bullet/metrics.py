@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .world import BODY_CENTER_X, BODY_HALF_LENGTH, BODY_HALF_WIDTH, World
+from .world import World, body_outline
 
 OUTCOMES = ("goal", "collision", "timeout")
 
@@ -29,19 +29,5 @@ def body_clearance(world: World, poses: np.ndarray, samples_per_side: int = 6) -
 
     poses: (N, 3) x, y, yaw. Returns (N,) m (negative = overlap, +inf without obstacles).
     """
-    t = np.linspace(-1.0, 1.0, samples_per_side, endpoint=False)
-    hl, hw = BODY_HALF_LENGTH, BODY_HALF_WIDTH
-    local = np.concatenate(
-        [
-            np.column_stack((hl * t, np.full_like(t, -hw))),
-            np.column_stack((np.full_like(t, hl), hw * t)),
-            np.column_stack((-hl * t, np.full_like(t, hw))),
-            np.column_stack((np.full_like(t, -hl), -hw * t)),
-        ]
-    )
-    local[:, 0] += BODY_CENTER_X
-    c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
-    wx = poses[:, 0:1] + c * local[:, 0] - s * local[:, 1]
-    wy = poses[:, 1:2] + s * local[:, 0] + c * local[:, 1]
-    d = world.distance(np.column_stack((wx.ravel(), wy.ravel())))
-    return d.reshape(len(poses), -1).min(axis=1)
+    outline = body_outline(np.asarray(poses).reshape(-1, 3), samples_per_side)
+    return world.distance(outline.reshape(-1, 2)).reshape(len(outline), -1).min(axis=1)

@@ -139,8 +139,11 @@ def obstacle_distance(ob: Obstacle, pts: np.ndarray) -> np.ndarray:
     return outside + inside
 
 
-def body_outline(pose: Sequence[float], samples_per_side: int = 8) -> np.ndarray:
-    """Points on Kachaka's body rectangle at pose (x, y, yaw): (4*samples, 2), m, world frame."""
+def body_outline(poses: Sequence[float] | np.ndarray, samples_per_side: int = 8) -> np.ndarray:
+    """Points on Kachaka's body rectangle at one pose (x, y, yaw) or at (N, 3) poses.
+
+    Returns (4 * samples, 2) for one pose or (N, 4 * samples, 2) for N poses, m, world frame.
+    """
     t = np.linspace(-1.0, 1.0, samples_per_side, endpoint=False)
     hl, hw = BODY_HALF_LENGTH, BODY_HALF_WIDTH
     local = np.concatenate(
@@ -152,11 +155,13 @@ def body_outline(pose: Sequence[float], samples_per_side: int = 8) -> np.ndarray
         ]
     )
     local[:, 0] += BODY_CENTER_X
-    x, y, yaw = pose
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.column_stack(
-        (x + c * local[:, 0] - s * local[:, 1], y + s * local[:, 0] + c * local[:, 1])
-    )
+    arr = np.asarray(poses, dtype=np.float64)
+    many = arr.reshape(-1, 3)
+    c, s = np.cos(many[:, 2])[:, None], np.sin(many[:, 2])[:, None]
+    wx = many[:, 0:1] + c * local[:, 0] - s * local[:, 1]
+    wy = many[:, 1:2] + s * local[:, 0] + c * local[:, 1]
+    out = np.stack((wx, wy), axis=-1)
+    return out[0] if arr.ndim == 1 else out
 
 
 def validate_task(world: World) -> None:

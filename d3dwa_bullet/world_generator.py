@@ -38,7 +38,16 @@ import yaml
 
 from . import WORLDS_DIR
 from .errors import ConfigError, D3DWAError, UnknownNameError, WorldFormatError
-from .world import Box, Cylinder, Obstacle, World, obstacle_distance, validate_task
+from .world import (
+    Box,
+    Cylinder,
+    Obstacle,
+    World,
+    _field,
+    _vector,
+    obstacle_distance,
+    validate_task,
+)
 from .world_grid import footprint_reachable, gap_between, shortest_path
 
 GENERATORS_DIR = WORLDS_DIR / "generators"
@@ -116,26 +125,8 @@ def list_generator_styles() -> list[str]:
     return sorted(p.stem for p in GENERATORS_DIR.glob("*.yaml"))
 
 
-def _get(data: Mapping[str, Any], key: str, where: str) -> Any:
-    if key not in data:
-        raise WorldFormatError(f"{where}: missing field '{key}'")
-    return data[key]
-
-
-def _floats(value: Any, n: int, where: str, key: str) -> tuple[float, ...]:
-    try:
-        vec = tuple(float(v) for v in value)
-    except (TypeError, ValueError) as err:
-        raise WorldFormatError(
-            f"{where}: field '{key}' must be {n} numbers, got {value!r}"
-        ) from err
-    if len(vec) != n or not all(math.isfinite(v) for v in vec):
-        raise WorldFormatError(f"{where}: field '{key}' must be {n} finite numbers, got {value!r}")
-    return vec
-
-
 def _range(value: Any, where: str, key: str, positive: bool = True) -> tuple[float, float]:
-    lo, hi = _floats(value, 2, where, key)
+    lo, hi = _vector(value, 2, where, key)
     if lo > hi or (positive and lo <= 0):
         raise WorldFormatError(
             f"{where}: field '{key}' must be [low, high] with {'0 < ' if positive else ''}low <= high, got {value!r}"
@@ -144,7 +135,7 @@ def _range(value: Any, where: str, key: str, positive: bool = True) -> tuple[flo
 
 
 def _scalar(data: Mapping[str, Any], key: str, where: str, default: Any = None) -> float:
-    value = data.get(key, default) if default is not None else _get(data, key, where)
+    value = data.get(key, default) if default is not None else _field(data, key, where)
     try:
         v = float(value)
     except (TypeError, ValueError) as err:
@@ -157,22 +148,22 @@ def _scalar(data: Mapping[str, Any], key: str, where: str, default: Any = None) 
 def _parse_line(data: Any, where: str, count: int, closed_gap: float) -> LineSpec:
     if not isinstance(data, Mapping):
         raise WorldFormatError(f"{where}: must be a mapping, got {data!r}")
-    n = _get(data, "count", where)
+    n = _field(data, "count", where)
     if not isinstance(n, int) or not 2 <= n <= count:
         raise WorldFormatError(
             f"{where}: field 'count' must be an integer in [2, {count}], got {n!r}"
         )
-    first = _floats(_get(data, "first", where), 4, where, "first")
+    first = _vector(_field(data, "first", where), 4, where, "first")
     if not (first[0] <= first[2] and first[1] <= first[3]):
         raise WorldFormatError(
             f"{where}: field 'first' must be [xmin, ymin, xmax, ymax], got {first}"
         )
-    gap = _range(_get(data, "gap", where), where, "gap")
+    gap = _range(_field(data, "gap", where), where, "gap")
     if gap[1] > closed_gap:
         raise WorldFormatError(
             f"{where}: field 'gap' = {list(gap)} must stay within 'closed_gap' = {closed_gap}"
         )
-    heading = _range(_get(data, "heading", where), where, "heading", positive=False)
+    heading = _range(_field(data, "heading", where), where, "heading", positive=False)
     return LineSpec(count=n, first=first, heading=heading, gap=gap)  # type: ignore[arg-type]
 
 
@@ -181,10 +172,10 @@ def parse_generator(data: Any, source: str) -> GeneratorSpec:
     where = source
     if not isinstance(data, Mapping):
         raise WorldFormatError(f"{where}: top level must be a mapping, got {type(data).__name__}")
-    layout = str(_get(data, "layout", where))
+    layout = str(_field(data, "layout", where))
     if layout not in LAYOUTS:
         raise WorldFormatError(f"{where}: field 'layout' = {layout!r} is not one of {LAYOUTS}")
-    shapes = _get(data, "shapes", where)
+    shapes = _field(data, "shapes", where)
     if not isinstance(shapes, Mapping) or not shapes:
         raise WorldFormatError(f"{where}: field 'shapes' must map box/cylinder to probabilities")
     probs = {}
@@ -198,9 +189,9 @@ def parse_generator(data: Any, source: str) -> GeneratorSpec:
     if not total > 0:
         raise WorldFormatError(f"{where}: field 'shapes' probabilities must not all be 0")
     spec: dict[str, Any] = dict(
-        style=str(_get(data, "style", where)),
-        description=str(_get(data, "description", where)),
-        goal=_floats(_get(data, "goal", where), 2, where, "goal"),
+        style=str(_field(data, "style", where)),
+        description=str(_field(data, "description", where)),
+        goal=_vector(_field(data, "goal", where), 2, where, "goal"),
         layout=layout,
         shapes=tuple((k, v / total) for k, v in sorted(probs.items())),
         box_side=_range(data.get("box_side", [0.3, 0.3]), where, "box_side"),
@@ -220,10 +211,10 @@ def parse_generator(data: Any, source: str) -> GeneratorSpec:
             f"{where}: field 'closed_gap' = {spec['closed_gap']} must be < 'min_gap' = {spec['min_gap']}"
         )
     if layout == "scatter":
-        count = _get(data, "count", where)
+        count = _field(data, "count", where)
         if not isinstance(count, int) or count < 1:
             raise WorldFormatError(f"{where}: field 'count' must be an integer >= 1, got {count!r}")
-        region = _floats(_get(data, "region", where), 4, where, "region")
+        region = _vector(_field(data, "region", where), 4, where, "region")
         if not (region[0] < region[2] and region[1] < region[3]):
             raise WorldFormatError(
                 f"{where}: field 'region' must be [xmin, ymin, xmax, ymax], got {region}"
@@ -232,17 +223,17 @@ def parse_generator(data: Any, source: str) -> GeneratorSpec:
         if "line" in data:
             spec["line"] = _parse_line(data["line"], f"{where}: line", count, spec["closed_gap"])
     else:
-        rows = _get(data, "rows", where)
+        rows = _field(data, "rows", where)
         rwhere = f"{where}: rows"
         if not isinstance(rows, Mapping):
             raise WorldFormatError(f"{where}: field 'rows' must be a mapping, got {rows!r}")
-        xs = _get(rows, "x", rwhere)
+        xs = _field(rows, "x", rwhere)
         if not isinstance(xs, list) or not xs:
             raise WorldFormatError(
                 f"{rwhere}: field 'x' must be a non-empty list of numbers, got {xs!r}"
             )
-        row_x = _floats(xs, len(xs), rwhere, "x")
-        per_row = _get(rows, "per_row", rwhere)
+        row_x = _vector(xs, len(xs), rwhere, "x")
+        per_row = _field(rows, "per_row", rwhere)
         if not isinstance(per_row, int) or per_row < 1:
             raise WorldFormatError(
                 f"{rwhere}: field 'per_row' must be an integer >= 1, got {per_row!r}"
@@ -250,8 +241,8 @@ def parse_generator(data: Any, source: str) -> GeneratorSpec:
         spec["rows"] = RowsSpec(
             x=row_x,
             per_row=per_row,
-            gap=_range(_get(rows, "gap", rwhere), rwhere, "gap"),
-            center_y=_floats([rows.get("center_y", 0.0)], 1, rwhere, "center_y")[0],
+            gap=_range(_field(rows, "gap", rwhere), rwhere, "gap"),
+            center_y=_vector([rows.get("center_y", 0.0)], 1, rwhere, "center_y")[0],
             shift=_range(rows.get("shift", [0.0, 0.0]), rwhere, "shift", positive=False),
             stagger=_scalar(rows, "stagger", rwhere, 0.5),
             x_jitter=_scalar(rows, "x_jitter", rwhere, 0.0),
