@@ -1,9 +1,9 @@
 """Run one episode: sense -> estimate -> observe -> choose parameters -> plan -> drive.
 
 The loop is the same for every method; only the controller differs. Termination is judged
-on ground truth (a fact about the world, not the robot's belief): goal when base_link is
-within the goal tolerance, collision on a Bullet contact or a true lidar range below the
-collision threshold, timeout at the time limit.
+on ground truth (a fact about the world, not the robot's belief): collision on a Bullet
+contact or a true lidar range below the collision threshold (checked first), goal when
+base_link is within the goal tolerance, timeout at the time limit.
 """
 
 from __future__ import annotations
@@ -144,10 +144,11 @@ class Episode:
         valid = true_ranges[np.isfinite(true_ranges) & (true_ranges >= cfg.lidar.range_min)]
         self.goal_distance = math.hypot(self.world.goal[0] - pose[0], self.world.goal[1] - pose[1])
         self.obstacle_distance = float(valid.min()) if valid.size else math.inf
-        if self.goal_distance <= term.goal_tolerance:
-            self.outcome = "goal"
-        elif sim.in_contact() or self.obstacle_distance < term.collision_distance:
+        # Collision first: touching an obstacle inside the goal tolerance is still a collision.
+        if sim.in_contact() or self.obstacle_distance < term.collision_distance:
             self.outcome = "collision"
+        elif self.goal_distance <= term.goal_tolerance:
+            self.outcome = "goal"
         elif sim.step_count >= self.max_steps:
             self.outcome = "timeout"
         self.scan = scan

@@ -143,7 +143,7 @@ class Simulator:
         self.odometry.reset(world.start)
         self.estimator = PoseEstimator(pose=world.start, t=0.0)
         self._last_angles = self._wheel_angles()  # encoder reference, rad
-        self._last_yaw = float(yaw)  # gyro reference, rad
+        self._last_yaw = self.true_pose()[2]  # gyro reference, rad
         self.step_count = 0
         self.command = (0.0, 0.0)  # last rate-limited command actually sent, (v, w)
         self.velocity_estimate = (0.0, 0.0)

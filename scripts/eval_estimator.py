@@ -28,7 +28,6 @@ from d3dwa_bullet.episode import Episode, run_episode
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation import make_noise
 from d3dwa_bullet.methods import make_controller
-from d3dwa_bullet.noise import wrap_angle
 from d3dwa_bullet.planner import PlannerAction, PlanResult
 from d3dwa_bullet.world import load_world
 
