@@ -7,24 +7,21 @@ recorded scan goes through the very code an episode runs at every control step:
 
 with the same parameter objects (``EpisodeConfig``) as ``Episode.observe`` / ``Episode.act``.
 
-Recording (``record_episode``), per control step k at sim time t_k (bag time = sim time +
-``start_ns``, 1 s by default: a zero header stamp means "unset" in ROS and would make the
-reader fall back to receive times):
+Recording (``record_episode``): one message per control step k, stamped with the bag time
+of sim time t_k (bag time = sim time + ``start_ns``, 1 s by default: a zero header stamp
+means "unset" in ROS and would make the reader fall back to receive times):
 
-========================================  =============================================
-``/kachaka/lidar/scan``                   the scan the observation was built from
-                                          (float32 in the sim already, so bit-exact)
-``/kachaka/odometry/odometry`` + ``/tf``  the robot's *estimate* (EKF with noise on,
-                                          ground truth without): on a real Kachaka this
-                                          topic is the robot's own fused odometry
-``/kachaka/manual_control/cmd_vel``       the planner's command
-``/d3dwa/planner_params``                 [wp, wc, ws, tau, action_index] (-1: fixed method)
-``/kachaka/wheel_odometry/wheel_odometry``  raw wheel odometry, and the gyro on
-``/kachaka/imu/imu``                      ``/kachaka/imu/imu``, both stamped when the
-                                          simulator produced them (the end of each control
-                                          period, i.e. the readings the EKF fused at t_k)
-``/goal_pose``, ``/tf_static``            once: goal in ``odom``; lidar and IMU mounts
-========================================  =============================================
+* ``/kachaka/lidar/scan``: the scan the observation was built from (float32 already in the
+  simulator, so it replays bit for bit);
+* ``/kachaka/odometry/odometry`` and ``/tf`` odom -> base_link: the robot's *estimate*, the
+  pose and velocity the observation was built from (EKF with noise on, ground truth
+  without); on a real Kachaka this topic is the robot's own fused odometry;
+* ``/kachaka/manual_control/cmd_vel``: the planner's command;
+* ``/d3dwa/planner_params``: [wp, wc, ws, tau, action_index] (index -1: a fixed method);
+* ``/kachaka/wheel_odometry/wheel_odometry`` and ``/kachaka/imu/imu``: raw wheel odometry
+  and gyro, one sample per control period from t = 0, stamped when the simulator produced
+  them (mean rates over the period just ended: the readings its EKF fused);
+* once: ``/goal_pose`` (in ``odom``) and ``/tf_static`` (lidar and IMU mounts).
 
 Replay (``make_step_fn``): with ``estimator="odometry"`` (the default) the bag's odometry
 *is* the estimate, exactly as on the robot, and a replay of a recorded episode reproduces
@@ -48,7 +45,7 @@ from .episode import Episode, EpisodeConfig, run_episode
 from .errors import ConfigError
 from .estimator import EstimatorConfig, PoseEstimator
 from .methods import Controller, make_controller
-from .noise import NoiseModel
+from .noise import NoiseModel, wrap_angle
 from .observation import build_observation, goal_in_body
 from .planner import PlannerAction, PlanResult, plan
 from .world import World, load_world
@@ -91,7 +88,9 @@ def decide(
 class _EkfEstimate:
     """Wheel odometry + gyro fused by the simulator's EKF, started at the first odometry pose.
 
-    Without wheel odometry in the bag the pose source's twist stands in for it.
+    Same order as ``Simulator._fuse``: the readings at t are means over the period ending at
+    t, so they are fused first, then the filter predicts to t. Without wheel odometry in the
+    bag the pose source's twist stands in for it; no absolute pose fixes are fused.
     """
 
     def __init__(self, config: EstimatorConfig) -> None:
@@ -102,13 +101,12 @@ class _EkfEstimate:
         t = step.t_ns / 1e9
         if self.ekf is None:
             self.ekf = PoseEstimator(self.config, pose=tuple(step.odom_pose), t=t)
-        else:
-            self.ekf.predict(t)
         twist = step.wheel_twist if step.wheel_twist is not None else step.odom_twist
         if np.isfinite(twist).all():
             self.ekf.update_odometry(float(twist[0]), float(twist[1]))
         if step.imu_w is not None and math.isfinite(step.imu_w):
             self.ekf.update_gyro(step.imu_w)
+        self.ekf.predict(t)
         return self.ekf.pose, self.ekf.velocity
 
 
@@ -190,13 +188,29 @@ class _GyroTap:
         return reading
 
 
+def mean_body_rates(start: Pose, end: Pose, dt: float) -> Twist:
+    """(v, w), m/s and rad/s: the constant-rate arc that takes pose start to pose end in dt.
+
+    The inverse of ``odometry.arc_step`` (sideways motion is dropped): what perfect wheel
+    encoders and a perfect gyro, averaged over the period, report.
+    """
+    w = wrap_angle(end[2] - start[2]) / dt
+    half = 0.5 * w * dt
+    mid = start[2] + half
+    along = (end[0] - start[0]) * math.cos(mid) + (end[1] - start[1]) * math.sin(mid)
+    sinc = math.sin(half) / half if abs(half) > 1e-9 else 1.0 - half * half / 6.0
+    return along / (dt * sinc), w
+
+
 class EpisodeRecorder:
     """``on_step`` hook of ``run_episode`` that writes each control step into a BagRecorder.
 
     Decision-time messages (scan, estimate, tf, command, planner parameters) are stamped with
     the scan's own time, so the hook does not depend on whether it runs before or after the
     robot moves. Wheel odometry and gyro are stamped with the simulator time they were
-    produced at; one sample per control period, starting at t = 0.
+    produced at, one sample per control period from t = 0, and hold, like the simulator's
+    sensors, the mean rates over the period just ended: with noise on the encoder odometry
+    and the gyro reading the EKF fused, with noise off the exact rates from ground truth.
     """
 
     def __init__(
@@ -240,25 +254,28 @@ class EpisodeRecorder:
         sim = ep.sim
         while self._sensor_steps <= sim.step_count:
             k = self._sensor_steps
-            if k == sim.step_count:  # produced by the step that just ended (or the reset)
-                if sim.noisy:
-                    wheel_pose: Pose = sim.odometry_pose()
-                    wheel_twist: Twist = (sim.odometry.v, sim.odometry.w)
-                else:
-                    wheel_pose, wheel_twist = sim.true_pose(), sim.true_velocity()
-            else:  # the reset state, already stepped past (hook runs after the move)
-                wheel_pose, wheel_twist = self.world.start, (0.0, 0.0)
-            gyro = self._gyro(k, wheel_twist[1])
+            wheel_pose, wheel_twist = self._wheel(ep, k)
+            gyro = self.tap.readings[k] if self.tap is not None and sim.noisy else wheel_twist[1]
             t = self._bag_ns(self._period_ns(k))
             self.recorder.write_odometry(t, wheel_pose, wheel_twist, wheel=True)
             self.recorder.write_imu(t, gyro)
             self._sensor_steps += 1
 
-    def _gyro(self, k: int, w_fallback: float) -> float:
-        """The gyro reading fused at control period k (the true rate with noise off)."""
-        if self.tap is not None and k < len(self.tap.readings):
-            return self.tap.readings[k]
-        return float(w_fallback)
+    def _wheel(self, ep: Episode, k: int) -> tuple[Pose, Twist]:
+        """Wheel-odometry pose and mean twist at the end of control period k."""
+        sim = ep.sim
+        if k == 0:  # the reset: at rest, wheel odometry started at the world's start pose
+            return (self.world.start if sim.noisy else self._true_pose(ep, 0)), (0.0, 0.0)
+        if sim.noisy:  # k == sim.step_count: the reading of the period that just ended
+            return sim.odometry_pose(), (sim.odometry.v, sim.odometry.w)
+        pose = self._true_pose(ep, k)
+        return pose, mean_body_rates(
+            self._true_pose(ep, k - 1), pose, self.config.sim.control_period
+        )
+
+    @staticmethod
+    def _true_pose(ep: Episode, k: int) -> Pose:
+        return ep.truth[k] if k < len(ep.truth) else ep.sim.true_pose()
 
 
 def record_episode(

@@ -30,6 +30,8 @@ At a scan time equal to an odometry stamp the odometry values are returned bit f
 
 from __future__ import annotations
 
+import math
+from contextlib import suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -244,18 +246,20 @@ def _extract(role: str, msg: Any) -> Any:
     if role in ("odometry", "wheel_odometry"):
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
         t = msg.twist.twist
-        return (
-            _stamp_ns(msg.header),
-            msg.header.frame_id,
-            msg.child_frame_id,
+        values = (
             float(p.x),
             float(p.y),
             yaw_from_quaternion(q.x, q.y, q.z, q.w),
             float(t.linear.x),
             float(t.angular.z),
         )
+        if not all(math.isfinite(v) for v in values):  # would poison the interpolation
+            raise ValueError(f"non-finite pose or twist {values}")
+        return (_stamp_ns(msg.header), msg.header.frame_id, msg.child_frame_id, *values)
     if role == "imu":
         av = msg.angular_velocity
+        if not math.isfinite(av.z):
+            raise ValueError(f"non-finite angular_velocity.z {av.z}")
         return (_stamp_ns(msg.header), msg.header.frame_id, float(av.x), float(av.y), float(av.z))
     if role in ("tf", "tf_static"):
         out = []
@@ -309,7 +313,9 @@ def read_bag(
 
     Raises ``BagFormatError`` (naming the bag and topic) for a missing or unreadable bag,
     no usable LaserScan topic, or a scan topic whose every message is corrupt. Single
-    corrupt messages are counted in ``BagData.corrupt`` and skipped.
+    corrupt messages (undecodable, or odometry / gyro rate holding NaN or inf) are counted
+    in ``BagData.corrupt`` and skipped. A bag whose storage breaks off mid-way is read up to
+    the break (with a note).
     """
     path = Path(path)
     if not path.exists():
@@ -332,7 +338,19 @@ def read_bag(
         raw: dict[str, list[tuple[int, Any]]] = {role: [] for role in resolution.topics}
         corrupt: dict[str, int] = {}
         corrupt_scan_times: list[int] = []
-        for conn, receive_ns, data in reader.messages(connections=connections):
+        stopped: str | None = None
+        messages = reader.messages(connections=connections)
+        while True:
+            try:
+                conn, receive_ns, data = next(messages)
+            except StopIteration:
+                break
+            except Exception as err:  # noqa: BLE001 - damaged storage: keep what was read
+                read = sum(len(v) for v in raw.values())
+                if not read:
+                    raise BagFormatError(f"{path}: cannot read messages: {err}") from err
+                stopped = f"reading stopped after {read} messages: {type(err).__name__}: {err}"
+                break
             try:
                 msg = reader.deserialize(data, conn.msgtype)
                 records = [(role, _extract(role, msg)) for role in roles_of[conn.topic]]
@@ -344,8 +362,12 @@ def read_bag(
             for role, rec in records:
                 raw[role].append((int(receive_ns), rec))
     finally:
-        reader.close()
-    return _assemble(path, resolution, raw, corrupt, corrupt_scan_times, mount, clock)
+        with suppress(Exception):
+            reader.close()
+    data = _assemble(path, resolution, raw, corrupt, corrupt_scan_times, mount, clock)
+    if stopped is not None:
+        data.notes.append(f"{path}: {stopped}; replaying the messages before it")
+    return data
 
 
 def _assemble(

@@ -131,6 +131,8 @@ class BagRecorder:
         self._writer: Any = None
         self._connections: dict[str, Any] = {}
         self._started = False
+        self.created = False
+        """True once this recorder has created its bag (``discard`` only removes such a bag)."""
         self._types = self.typestore.types
         self.counts: dict[str, int] = {}
 
@@ -170,6 +172,7 @@ class BagRecorder:
             self._writer.open()
         except Exception as err:
             raise BagFormatError(f"{self.path}: cannot create bag: {err}") from err
+        self.created = True
 
     def _remove_existing(self) -> None:
         p = self.path
@@ -184,6 +187,15 @@ class BagRecorder:
         if self._writer is not None:
             writer, self._writer = self._writer, None
             writer.close()
+
+    def discard(self) -> None:
+        """Close and delete the bag this recorder created (e.g. one left empty by a failure)."""
+        with suppress(Exception):
+            self.close()
+        if self.created and self.path.exists():
+            with suppress(BagFormatError, OSError):
+                self._remove_existing()
+        self.created = False
 
     def _connection(self, topic: str, msgtype: str) -> Any:
         conn = self._connections.get(topic)

@@ -2,9 +2,11 @@
 
 ``d3dwa_bullet.cli`` owns the parser: it calls ``add_*_arguments(subparser)`` and dispatches
 to ``run_*(args, ...)``, which return the exit code. What only the simulator side knows
-comes in as callables: ``make_step_fn(method, policy_path) -> step_fn`` for the replay and
-``run_episode(world, method, policy_path, noise, seed, recorder)`` for recording. Errors are
-raised as ``D3DWAError`` subclasses (``BagFormatError``, ...) for ``main`` to report.
+comes in as callables: ``make_step_fn(method, policy_path, estimator=...) -> step_fn`` for
+the replay and ``run_episode(world, method, policy_path, noise, seed, recorder)`` (plus
+``time_limit=`` when ``--time-limit`` is given) for recording. Errors are raised as
+``D3DWAError`` subclasses (``BagFormatError``, ...) for ``main`` to report; whatever was
+replayed before an error is on disk by then (``replay.csv``, ``summary.json``).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, TextIO
 
-from d3dwa_bullet.errors import BagFormatError
+from d3dwa_bullet.errors import BagFormatError, ConfigError, D3DWAError
 from d3dwa_bullet.scan import Pose2D
 
 from .bag_writer import BagRecorder
@@ -27,6 +29,8 @@ from .topics import TopicMap
 
 #: Replay method that needs no simulator-side code: observations only, no decision.
 OBSERVE_METHOD = "observe"
+#: Pose sources of the replay (``--estimator``).
+ESTIMATORS = ("odometry", "ekf")
 
 
 def parse_floats(text: str, n: int, what: str) -> tuple[float, ...]:
@@ -74,6 +78,13 @@ def add_replay_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--clock", choices=("auto", "header", "receive"), default="auto", help="replay clock"
     )
+    parser.add_argument(
+        "--estimator",
+        choices=ESTIMATORS,
+        default="odometry",
+        help="pose/velocity source: the bag's fused odometry (default; bit-exact against the "
+        "simulator) or 'ekf', re-fusing wheel odometry and IMU (robots without fused odometry)",
+    )
     parser.add_argument("--out", type=Path, required=True, help="output directory")
     parser.add_argument("--no-plots", action="store_true", help="skip the figures")
     _add_bag_options(parser)
@@ -95,33 +106,70 @@ def describe_replay(result: ReplayResult) -> str:
 
 def run_replay(
     args: argparse.Namespace,
-    make_step_fn: Callable[[str, Path | None], StepFn] | None = None,
-    out: TextIO = sys.stdout,
+    make_step_fn: Callable[..., StepFn] | None = None,
+    out: TextIO | None = None,
 ) -> int:
-    """``d3dwa replay``. Exit code 0 if any scan was replayed, 1 if none was."""
+    """``d3dwa replay``. Exit code 0 if any scan was replayed.
+
+    If none was, the summary is still printed (and written to ``--out``), then a
+    ``BagFormatError`` says why. An unexpected failure inside the step function (a bug, or
+    data the pipeline cannot digest) becomes a ``D3DWAError`` naming the bag and the
+    partial results, instead of a traceback.
+    """
+    out = sys.stdout if out is None else out
+    estimator = getattr(args, "estimator", "odometry")
     if args.method == OBSERVE_METHOD:
+        if estimator != "odometry":
+            raise ConfigError(
+                f"--estimator {estimator} needs a decision method (--method dwa1, ..., d3dwa)"
+            )
         step_fn: StepFn = observe_only
     elif make_step_fn is None:
         raise BagFormatError(f"replay method {args.method!r} is not available in this build")
-    else:
+    elif estimator == "odometry":
         step_fn = make_step_fn(args.method, args.policy)
+    else:
+        step_fn = make_step_fn(args.method, args.policy, estimator=estimator)
     goal = parse_floats(args.goal, 2, "--goal") if args.goal else None
     mount = Pose2D(*parse_floats(args.mount, 3, "--mount")) if args.mount else None
-    result = replay_bag(
-        args.bag,
-        step_fn=step_fn,
-        goal=goal,
-        topics=parse_topic_overrides(args.topic),
-        mount=mount,
-        out_dir=args.out,
-        clock=args.clock,
-        plots=not args.no_plots,
-    )
+    try:
+        result = replay_bag(
+            args.bag,
+            step_fn=step_fn,
+            goal=goal,
+            topics=parse_topic_overrides(args.topic),
+            mount=mount,
+            out_dir=args.out,
+            clock=args.clock,
+            plots=not args.no_plots,
+        )
+    except D3DWAError:
+        raise
+    except Exception as err:  # noqa: BLE001 - reported as one line; rows so far are on disk
+        raise D3DWAError(
+            f"{args.bag}: replay with {args.method!r} stopped: {type(err).__name__}: {err}; "
+            f"scans replayed before the failure are in {Path(args.out) / 'replay.csv'}"
+        ) from err
     if args.json:
         out.write(json.dumps(result.summary(), indent=2) + "\n")
     else:
         out.write(describe_replay(result) + "\n")
-    return 0 if result.replayed else 1
+    if not result.replayed:
+        raise BagFormatError(nothing_replayed(result))
+    return 0
+
+
+def nothing_replayed(result: ReplayResult) -> str:
+    """One line: why no scan of the bag was replayed."""
+    topic = result.topics.get("scan")
+    why = ", ".join(f"{n} {k}" for k, n in sorted(result.skipped.items())) or "no scans"
+    overlap = [n for n in result.notes if n.startswith("no scan overlaps")]
+    extra = f"; {overlap[0]} (odometry topic {result.topics.get('odometry')!r})" if overlap else ""
+    where = f"; summary in {result.files['summary']}" if "summary" in result.files else ""
+    return (
+        f"{result.bag}: no scan on {topic!r} could be replayed "
+        f"({result.scans} messages: {why}){extra}{where}"
+    )
 
 
 def add_record_arguments(parser: argparse.ArgumentParser) -> None:
@@ -131,6 +179,7 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, required=True, help="bag path (directory, or .bag)")
     parser.add_argument("--noise", default="none", help="randomisation profile name")
     parser.add_argument("--seed", type=int, default=0, help="episode seed")
+    parser.add_argument("--time-limit", type=float, help="episode time limit, s (default: world's)")
     parser.add_argument("--storage", choices=("sqlite3", "mcap", "ros1"), default="sqlite3")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing bag")
 
@@ -138,12 +187,37 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
 def run_record(
     args: argparse.Namespace,
     run_episode: Callable[..., Any],
-    out: TextIO = sys.stdout,
+    out: TextIO | None = None,
 ) -> int:
     """``d3dwa record``: ``run_episode(world, method, policy, noise, seed, recorder)`` drives
-    the simulator and calls ``recorder.write_step(...)`` once per control step."""
-    with BagRecorder(args.out, storage=args.storage, overwrite=args.overwrite) as recorder:
-        episode = run_episode(args.world, args.method, args.policy, args.noise, args.seed, recorder)
+    the simulator and calls ``recorder.write_step(...)`` once per control step.
+
+    A failure before the first message (unknown world or method, missing policy) leaves no
+    bag behind; a failure halfway keeps the steps recorded so far in a readable bag.
+    """
+    out = sys.stdout if out is None else out
+    extra = {}
+    if getattr(args, "time_limit", None) is not None:
+        extra["time_limit"] = args.time_limit
+    recorder = BagRecorder(args.out, storage=args.storage, overwrite=args.overwrite)
+    try:
+        with recorder:
+            episode = run_episode(
+                args.world, args.method, args.policy, args.noise, args.seed, recorder, **extra
+            )
+    except BaseException as err:
+        if not recorder.counts:
+            recorder.discard()
+        if isinstance(err, D3DWAError) or not isinstance(err, Exception):
+            raise
+        kept = (
+            f"the bag keeps the {sum(recorder.counts.values())} messages written"
+            if recorder.counts
+            else "no bag written"
+        )
+        raise D3DWAError(
+            f"{args.out}: recording stopped: {type(err).__name__}: {err}; {kept}"
+        ) from err
     counts = ", ".join(f"{t}: {n}" for t, n in sorted(recorder.counts.items()))
     out.write(f"wrote {args.out} ({counts})\n")
     if episode is not None:
@@ -157,8 +231,9 @@ def add_compare_arguments(parser: argparse.ArgumentParser) -> None:
     _add_bag_options(parser)
 
 
-def run_compare(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
+def run_compare(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """``d3dwa compare-scans A B``: Markdown table, or JSON with --json."""
+    out = sys.stdout if out is None else out
     result = compare_scans(args.bag_a, args.bag_b, topics=parse_topic_overrides(args.topic))
     if args.json:
         out.write(json.dumps(result, indent=2) + "\n")

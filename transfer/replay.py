@@ -6,8 +6,10 @@ All per-scan processing goes through ONE injectable step function::
     step_fn(step: ScanStep) -> StepOutput | Mapping[str, Any]
 
 ``observe_only`` (the default) builds the 12-d observation from the recorded odometry; the
-full pipeline swaps in a stateful callable that feeds odometry and gyro to the estimator,
-asks the policy for an action and the planner for a command.
+full pipeline (``d3dwa_bullet.transfer_bridge.make_step_fn``) takes the recorded odometry
+(or re-fuses wheel odometry and gyro) as the estimate, asks the policy for an action and
+the planner for a command, with the simulator's own code. A step function may raise
+``SkipScan(reason)`` to skip a scan it cannot use; it is counted like the reader's skips.
 
 Outputs in ``out_dir``: ``replay.csv`` (one row per replayed scan, flushed row by row, so a
 run that fails or is killed keeps every completed row), ``summary.json`` (written
