@@ -89,6 +89,24 @@ class EpisodeResult:
         }
 
 
+def observation_of(pose, velocity, goal, points: np.ndarray, config: EpisodeConfig) -> np.ndarray:
+    """The observation from an estimate: the one function the simulator and bag replay share.
+
+    pose (x, y, yaw) and velocity (v, w): the estimate; goal (x, y), same frame; points:
+    (M, 2) valid returns in base_link. Returns (4 + K,) float64.
+    """
+    return build_observation(
+        pose, velocity, goal, points, config.observation, config.planner.limits
+    )
+
+
+def plan_from(
+    pose, velocity, goal, points: np.ndarray, action: PlannerAction, config: EpisodeConfig
+) -> PlanResult:
+    """The DWA step from an estimate and the chosen parameters (shared with bag replay)."""
+    return plan(velocity, points, goal_in_body(pose, goal), action, config.planner)
+
+
 class Episode:
     """One episode as a stepping object: ``observe()`` then ``act(...)`` until ``outcome``.
 
@@ -225,7 +243,7 @@ class Episode:
         self.close()
 
 
-#: Called after each decision, before the robot moves: (episode, action index, action, plan).
+#: Called after each control step (the robot has moved): (episode, action index, action, plan).
 StepHook = Callable[["Episode", int, PlannerAction, PlanResult], None]
 
 

@@ -249,8 +249,11 @@ def plan(
 
     # Lattice box of every circle centre: positions are linear in v, so v's extremes bound it.
     res = params.grid_resolution
-    lo_x, lo_y = (off.min(axis=2) for off in (off_x, off_y))
-    hi_x, hi_y = (off.max(axis=2) for off in (off_x, off_y))
+    # Offsets are linear in the centre's body-axis position: the end circles bound them.
+    ends_x = (cos_t * cx.min(), cos_t * cx.max())
+    ends_y = (sin_t * cx.min(), sin_t * cx.max())
+    lo_x, hi_x = np.minimum(*ends_x), np.maximum(*ends_x)
+    lo_y, hi_y = np.minimum(*ends_y), np.maximum(*ends_y)
     reach = int(math.ceil(cap / res)) + 1
     box = (
         int(math.floor(min((vs[0] * ux + lo_x).min(), (vs[-1] * ux + lo_x).min()) / res)) - reach,

@@ -41,13 +41,12 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .episode import Episode, EpisodeConfig, run_episode
+from .episode import Episode, EpisodeConfig, observation_of, plan_from, run_episode
 from .errors import ConfigError
 from .estimator import EstimatorConfig, PoseEstimator
 from .methods import Controller, make_controller
 from .noise import NoiseModel, wrap_angle
-from .observation import build_observation, goal_in_body
-from .planner import PlannerAction, PlanResult, plan
+from .planner import PlannerAction, PlanResult
 from .world import World, load_world
 
 Estimator = Literal["odometry", "ekf"]
@@ -79,10 +78,9 @@ def decide(
     goal: (x, y) m, same frame; points: (M, 2) float64 valid returns, m, base_link.
     Returns (observation (12,), action index, action, plan result).
     """
-    obs = build_observation(pose, velocity, goal, points, config.observation, config.planner.limits)
+    obs = observation_of(pose, velocity, goal, points, config)
     index, action = controller(obs)
-    result = plan(velocity, points, goal_in_body(pose, goal), action, config.planner)
-    return obs, index, action, result
+    return obs, index, action, plan_from(pose, velocity, goal, points, action, config)
 
 
 class _EkfEstimate:
