@@ -45,7 +45,9 @@ def bench(worlds: list[str], steps: int, method: str) -> dict:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("--worlds", default="TS1,TS3,H1,R3", help="comma list of worlds")
     ap.add_argument("--steps", type=int, default=300, help="max control steps per world")
     ap.add_argument("--method", default="dwa3")
