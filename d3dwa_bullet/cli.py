@@ -3,6 +3,9 @@
     d3dwa worlds                          list the shipped worlds
     d3dwa run --world TS1 --method dwa3   one episode (headless; --gui to watch)
     d3dwa eval --out results/             methods x worlds x seeds -> results.csv, table.md, figures
+    d3dwa sweep --methods dwa1 --out DIR  methods x noise levels on R1-R3 + unseen layouts -> plots
+    d3dwa report DIR                      a results directory -> DIR/report.md
+    d3dwa train --config configs/d3dwa.yaml --out runs/d3dwa   train a learned method (--resume)
 
 Every failure the user can cause (unknown name, malformed file, bad checkpoint) ends with a
 one-line ``d3dwa: error: ...`` on stderr and exit status 2, not a traceback.
@@ -13,7 +16,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shlex
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -21,6 +27,10 @@ from .errors import ConfigError, D3DWAError
 
 TABLE1_WORLDS = ("TS1", "TS2", "TS3", "TS4", "US1", "H1", "H2", "H3")
 TABLE2_WORLDS = ("R1", "R2", "R3")
+RAY_HELP = (
+    "run episodes on Ray: 'local' (a private instance), 'auto' (the cluster of `ray start`), "
+    "or HOST:PORT / ray://HOST:PORT"
+)
 
 
 def parse_floats(text: str, n: int, what: str) -> tuple[float, ...]:
@@ -131,16 +141,19 @@ def default_methods() -> list[str]:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
-    from .evaluation import Job, evaluate, world_figures
+    from .backends import check_address
+    from .evaluation import Job, evaluate, world_figures, write_text_atomic
     from .methods import check_method
-    from .table import paper_table, success_table
+    from .report import eval_markdown
     from .world import load_world
 
+    check_address(args.ray)
     config = episode_config(args)
     methods = [
         check_method(m) for m in (split_list(args.methods) if args.methods else default_methods())
     ]
-    worlds = [load_world(w) for w in (split_list(args.worlds) if args.worlds else TABLE1_WORLDS)]
+    world_args = split_list(args.worlds) if args.worlds else list(TABLE1_WORLDS)
+    worlds = [load_world(w) for w in world_args]
     if args.seeds < 1:
         raise ConfigError(f"--seeds must be >= 1, got {args.seeds}")
     seeds = list(range(args.seed, args.seed + args.seeds))
@@ -153,20 +166,19 @@ def cmd_eval(args: argparse.Namespace) -> int:
         for w in worlds for m in methods for s in seeds
     ]  # fmt: skip
     out = Path(args.out)
-    workers = args.workers or os.cpu_count() or 1
-    rows = evaluate(jobs, out, workers=workers, config=config, progress=not args.json)
     names = [w.name for w in worlds]
-    table = (
-        f"# Evaluation: {', '.join(names)}\n\nNoise profile: `{args.noise}`; seeds: {seeds[0]}..{seeds[-1]}.\n\n"
-        "Time [s], TL [m], PD [rad] averaged over successful seeds; T = timeout, C = collision; "
-        "best per world and metric in bold.\n\n"
-        + paper_table(rows, methods, names)
-        + "\n## Success rate and time (mean ± std over seeds)\n\n"
-        + success_table(rows, methods, names)
-    )
-    tmp = out / "table.md.tmp"
-    tmp.write_text(table)
-    os.replace(tmp, out / "table.md")
+    settings = {
+        "kind": "eval", "command": getattr(args, "command_line", ""), "methods": methods,
+        "worlds": names, "world_sources": [str(Path(a).resolve()) if Path(a).suffix else a
+                                           for a in world_args],
+        "seeds": seeds, "noise": args.noise,
+    }  # fmt: skip
+    rows = evaluate(
+        jobs, out, workers=workers_arg(args), config=config, progress=not args.json,
+        ray_address=args.ray, settings=settings,
+    )  # fmt: skip
+    table = eval_markdown(rows, methods, names, seeds, args.noise)
+    write_text_atomic(out / "table.md", table)
     figures = world_figures(out, worlds, methods, seeds[0], args.noise)
     if args.json:
         print(json.dumps(rows))
@@ -174,6 +186,75 @@ def cmd_eval(args: argparse.Namespace) -> int:
         print(table)
         print(f"results: {out / 'results.csv'}\ntable:   {out / 'table.md'}")
         print(f"figures: {len(figures)} in {out / 'figures'}")
+    return 0
+
+
+def workers_arg(args: argparse.Namespace) -> int:
+    """--workers, default all cores; refuses negative counts."""
+    if args.workers < 0:
+        raise ConfigError(f"--workers must be >= 0 (0 = all cores), got {args.workers}")
+    return args.workers or os.cpu_count() or 1
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from .backends import check_address
+    from .sweep import (
+        AXES,
+        PROFILES,
+        SHIPPED_WORLDS,
+        STYLES,
+        SweepSettings,
+        run_sweep,
+        summary_records,
+    )
+
+    check_address(args.ray)
+    settings = SweepSettings(
+        methods=tuple(split_list(args.methods) if args.methods else default_methods()),
+        worlds=tuple(split_list(args.worlds) if args.worlds is not None else SHIPPED_WORLDS),
+        styles=tuple(split_list(args.styles) if args.styles is not None else STYLES),
+        layouts=args.layouts, seeds=args.seeds, first_seed=args.seed, levels=args.levels,
+        axes=tuple(split_list(args.axes) if args.axes is not None else AXES),
+        profiles=tuple(split_list(args.profiles) if args.profiles is not None else PROFILES),
+        time_limit=args.time_limit,
+    )  # fmt: skip
+    if args.time_limit is not None and args.time_limit <= 0:
+        raise ConfigError(f"--time-limit must be > 0 s, got {args.time_limit}")
+    out = Path(args.out)
+    rows, complete = run_sweep(
+        settings, out, workers=workers_arg(args), ray_address=args.ray,
+        config=episode_config(args), progress=not args.json,
+        policy=args.policy if len(settings.methods) == 1 else None,
+        command=getattr(args, "command_line", ""),
+    )  # fmt: skip
+    if args.json:
+        print(json.dumps({"complete": complete, "episodes": len(rows),
+                          "summary": summary_records(rows, settings)}))  # fmt: skip
+    else:
+        print(f"{len(rows)} episodes in {out / 'results.csv'}")
+        if complete:
+            print(f"tables:  {out / 'sweep.md'}\nfigures: {out / 'figures'}/sweep_*.png")
+            print(f"page:    d3dwa report {out}")
+    return 0
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from .methods import POLICIES_DIR
+    from .report import write_report
+
+    report = write_report(args.dir, args.policies or POLICIES_DIR)
+    if args.json:
+        print(json.dumps({"report": str(report.path), "kind": report.kind,
+                          "complete": report.complete, "done": report.done,
+                          "expected": report.expected}))  # fmt: skip
+    else:
+        print(f"report: {report.path}")
+    if not report.complete:
+        print(
+            f"d3dwa: warning: {args.dir} is incomplete ({report.done} of {report.expected} "
+            "episodes); the page says so",
+            file=sys.stderr,
+        )
     return 0
 
 
@@ -230,8 +311,45 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="first seed")
     p.add_argument("--out", default="results", help="results directory (resumes if it exists)")
     p.add_argument("--workers", type=int, default=0, help="processes (default: all cores)")
+    p.add_argument("--ray", metavar="ADDRESS", help=RAY_HELP)
     add_common(p)
     p.set_defaults(func=cmd_eval)
+
+    p = sub.add_parser(
+        "sweep", help="success and time vs noise level on R1-R3 and unseen generated layouts"
+    )
+    p.add_argument("--methods", help="comma list (default: fixed baselines + shipped policies)")
+    p.add_argument("--out", required=True, help="results directory (resumes if it exists)")
+    p.add_argument("--levels", type=int, default=4, help="non-zero levels per noise axis")
+    p.add_argument(
+        "--layouts", type=int, default=2, help="unseen generated layouts per R1/R2/R3 style"
+    )
+    p.add_argument("--seeds", type=int, default=2, help="episode seeds per condition")
+    p.add_argument("--seed", type=int, default=0, help="first episode seed")
+    p.add_argument("--worlds", help="shipped worlds, comma list (default: R1,R2,R3; '' for none)")
+    p.add_argument("--styles", help="generator styles (default: R1-style,R2-style,R3-style)")
+    p.add_argument(
+        "--axes", help="noise axes (default: lidar_dropout,lidar_range,slip,odometry; '' for none)"
+    )
+    p.add_argument("--profiles", help="profiles (default: none,paper,real,harsh; '' for none)")
+    p.add_argument("--time-limit", type=float, help="episode time limit override, s")
+    p.add_argument("--workers", type=int, default=0, help="processes (default: all cores)")
+    p.add_argument("--ray", metavar="ADDRESS", help=RAY_HELP)
+    p.add_argument("--policy", help="checkpoint directory (only with a single --methods)")
+    p.add_argument("--json", action="store_true", help="print summary statistics as JSON")
+    p.add_argument("--physics-hz", type=int, default=240, help="physics rate")
+    p.add_argument("--control-hz", type=int, default=10, help="control (planning) rate")
+    p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("report", help="one Markdown page (tables + figures) for a results dir")
+    p.add_argument("dir", help="a results directory written by `d3dwa eval` or `d3dwa sweep`")
+    p.add_argument("--policies", help="where learning curves live (default: policies/)")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_report)
+
+    p = sub.add_parser("train", help="train a learned method (D3QN or tabular DQDWA)")
+    add_train_arguments(p)
+    p.set_defaults(func=cmd_train)
 
     from transfer.cli_commands import (
         add_compare_arguments,
@@ -251,6 +369,88 @@ def build_parser() -> argparse.ArgumentParser:
     add_compare_arguments(p)
     p.set_defaults(func=cmd_compare)
     return ap
+
+
+def add_train_arguments(p: argparse.ArgumentParser) -> None:
+    """Options of `d3dwa train` (also used by scripts/train_randomized.py)."""
+    p.add_argument(
+        "--method", help="d3dwa, d3dwa-weights, d3dwa-dr or dqdwa (default: the config's)"
+    )
+    p.add_argument(
+        "--config",
+        help="training config YAML (default: configs/<method>.yaml of the repository)",
+    )
+    p.add_argument("--out", help="run directory (default: runs/<method>__s<seed>__<time>)")
+    p.add_argument("--resume", action="store_true", help="continue the run in --out exactly")
+    p.add_argument(
+        "--total-steps", type=int, help="override total_steps (may extend a run on --resume)"
+    )
+    p.add_argument("--seed", type=int, help="override the config's seed")
+    p.add_argument(
+        "--export", help="also copy the run's policy here when done (e.g. policies/d3dwa)"
+    )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    import time
+
+    from . import REPO_ROOT
+    from .training import TrainConfig, export_policy, load_train_config, train
+
+    overrides = {"method": args.method, "total_steps": args.total_steps, "seed": args.seed}
+    if args.resume and not args.out:
+        raise ConfigError("--resume needs --out DIR (the run to continue)")
+    if args.config:
+        config: TrainConfig | None = load_train_config(args.config, **overrides)
+    elif args.resume:  # the run's own config; only total_steps may be extended
+        saved = Path(args.out) / "config.json"
+        config = load_train_config(saved, **overrides) if saved.exists() else None
+    elif args.method and (REPO_ROOT / "configs" / f"{args.method}.yaml").exists():
+        config = load_train_config(REPO_ROOT / "configs" / f"{args.method}.yaml", **overrides)
+    else:
+        config = TrainConfig(**{k: v for k, v in overrides.items() if v is not None})
+    if args.out:
+        out = Path(args.out)
+    else:
+        assert config is not None
+        out = Path("runs") / f"{config.method}__s{config.seed}__{time.strftime('%Y%m%d-%H%M%S')}"
+    try:
+        summary = train(
+            config, out, resume=args.resume, progress=not (args.no_progress or args.json)
+        )
+    except KeyboardInterrupt:  # a second Ctrl-C: stopped without saving
+        print(
+            f"d3dwa: training aborted; the last checkpoint ({out / 'checkpoints' / 'latest'}) "
+            "is intact: resume with --resume",
+            file=sys.stderr,
+        )
+        return 130
+    if summary["status"] == "done" and args.export:
+        keep = load_train_config(out / "config.json").keep
+        summary["exported"] = str(export_policy(out, args.export, keep))
+    if args.json:
+        print(json.dumps(summary))
+        return 130 if summary["status"] == "interrupted" else 0
+    best = summary["best_eval"]
+    print(
+        f"{summary['method']}: {summary['status']} after {summary['env_steps']} env steps, "
+        f"{summary['train_steps']} updates, {summary['episodes']} episodes in "
+        f"{summary['wall_time_s']:.0f} s ({summary['steps_per_s']} steps/s)"
+    )
+    if best:
+        print(
+            f"best greedy evaluation (training worlds) at step {best['step']}: success "
+            f"{best['success_rate']:.2f}, collisions {best['collision_rate']:.2f}"
+        )
+    if summary["status"] == "interrupted":
+        print(f"checkpoint saved; continue with: d3dwa train --resume --out {out}")
+        return 130
+    print(f"run: {out}\npolicy: {summary['policy']}")
+    if "exported" in summary:
+        print(f"exported: {summary['exported']}")
+    return 0
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
@@ -277,6 +477,11 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    args.command_line = shlex.join(["d3dwa", *(sys.argv[1:] if argv is None else argv)])
+    previous = signal.getsignal(signal.SIGTERM)
+    if threading.current_thread() is threading.main_thread():
+        # `kill PID` stops like Ctrl-C: finished rows are kept, local workers terminated.
+        signal.signal(signal.SIGTERM, _sigterm)
     try:
         return int(args.func(args) or 0)
     except D3DWAError as err:
@@ -285,6 +490,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("d3dwa: interrupted; finished episodes are kept in results.csv", file=sys.stderr)
         return 130
+    finally:
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _sigterm(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
 
 
 if __name__ == "__main__":
