@@ -59,9 +59,19 @@ def default_workers() -> int:
     return os.cpu_count() or 1
 
 
-def _ignore_sigint() -> None:
+def one_core_per_worker() -> None:
+    """In a worker that shares the machine with others, keep OpenCV's distance transform
+    (the planner's) on one thread: one process per core already fills the cores, and a
+    single process (training, one episode) keeps OpenCV's default of every core."""
+    import cv2
+
+    cv2.setNumThreads(1)
+
+
+def _init_pool_worker() -> None:
     """Pool workers leave Ctrl-C to the parent, which terminates them (no tracebacks)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    one_core_per_worker()
 
 
 def _call(args: tuple[JobFn, Any, Any]) -> tuple[Any, Any]:
@@ -80,7 +90,7 @@ def run_local(fn: JobFn, jobs: Sequence[J], config: Any, workers: int) -> Iterat
         for job in jobs:
             yield fn(job, config)
         return
-    pool = get_context("spawn").Pool(processes=min(workers, len(jobs)), initializer=_ignore_sigint)
+    pool = get_context("spawn").Pool(processes=min(workers, len(jobs)), initializer=_init_pool_worker)
     try:
         # chunksize 1: episodes last seconds to a minute, so balance beats batching.
         yield from pool.imap_unordered(_call, [(fn, job, config) for job in jobs], chunksize=1)
@@ -218,11 +228,17 @@ def ray_session(address: str, workers: int) -> Iterator[Any]:
             ray.shutdown()
 
 
+def _ray_call(fn: JobFn, job: Any, config: Any) -> tuple[Any, Any]:
+    """A Ray task: one CPU each, like a pool worker."""
+    one_core_per_worker()
+    return fn(job, config)
+
+
 def run_ray(ray: Any, fn: JobFn, jobs: Sequence[J], config: Any) -> Iterator[tuple[J, R]]:
     """One Ray task per job (1 CPU each) on a connected session, yielded as they finish."""
-    remote = ray.remote(num_cpus=1)(fn)
+    remote = ray.remote(num_cpus=1)(_ray_call)
     config_ref = ray.put(config)
-    pending = [remote.remote(job, config_ref) for job in jobs]
+    pending = [remote.remote(fn, job, config_ref) for job in jobs]
     try:
         while pending:
             done, pending = ray.wait(pending, num_returns=1)

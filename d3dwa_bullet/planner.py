@@ -41,8 +41,6 @@ import numpy as np
 from .params import PlannerParams
 from .scan import check_points
 
-cv2.setNumThreads(1)
-
 #: Admissible means clearance > r + m + TIE_TOLERANCE. Lattice clearances are sqrt(n) * res,
 #: so a trajectory exactly 10 cells (= r + m) away is common; rounding (float32 field vs
 #: float64 maths) must not decide it. The next lattice value above 0.2 m is 0.201 m.
@@ -187,6 +185,86 @@ def _sample_clearance(dist, width, vs, ux, uy, off_x, off_y, stop_below, out):  
             out[i * n_w + j] = best
 
 
+@numba.njit(cache=True, nogil=True)
+def _geometry(vs, ws, t, cx, gx, gy, res, reach):  # pragma: no cover
+    """Everything the planner needs from the sample grid before the distance field.
+
+    Returns the unit arcs ux, uy (n_w, n) (see :func:`unit_arcs`), the circle-centre
+    offsets off_x, off_y (n_w, n, C), the progress criterion (n_v * n_w,) and the lattice
+    box (i_min, j_min, i_max, j_max) holding every circle centre of every sample, grown by
+    ``reach`` cells. Positions are linear in v, so v's extremes bound them. One compiled
+    loop: in numpy these are ~30 small array operations, more time than the clearance read.
+    """
+    n_v, n_w, n_t, n_c = vs.shape[0], ws.shape[0], t.shape[0], cx.shape[0]
+    ux = np.empty((n_w, n_t))
+    uy = np.empty((n_w, n_t))
+    off_x = np.empty((n_w, n_t, n_c))
+    off_y = np.empty((n_w, n_t, n_c))
+    lo_x, lo_y, hi_x, hi_y = np.inf, np.inf, -np.inf, -np.inf
+    v_lo, v_hi = vs[0], vs[n_v - 1]
+    for j in range(n_w):
+        w = ws[j]
+        turning = abs(w) > 1e-9
+        for k in range(n_t):
+            theta = w * t[k]
+            c, s = math.cos(theta), math.sin(theta)
+            if turning:
+                x, y = s / w, (1.0 - c) / w
+            else:
+                x, y = t[k], 0.0
+            ux[j, k], uy[j, k] = x, y
+            for m in range(n_c):
+                ox, oy = c * cx[m], s * cx[m]
+                off_x[j, k, m], off_y[j, k, m] = ox, oy
+                for v in (v_lo, v_hi):
+                    px, py = v * x + ox, v * y + oy
+                    lo_x, hi_x = min(lo_x, px), max(hi_x, px)
+                    lo_y, hi_y = min(lo_y, py), max(hi_y, py)
+    d0 = math.hypot(gx, gy)
+    progress = np.empty(n_v * n_w)
+    for i in range(n_v):
+        for j in range(n_w):
+            ex, ey = vs[i] * ux[j, n_t - 1], vs[i] * uy[j, n_t - 1]
+            progress[i * n_w + j] = d0 - math.hypot(gx - ex, gy - ey)
+    box = (
+        int(math.floor(lo_x / res)) - reach,
+        int(math.floor(lo_y / res)) - reach,
+        int(math.ceil(hi_x / res)) + reach,
+        int(math.ceil(hi_y / res)) + reach,
+    )
+    return ux, uy, off_x, off_y, progress, box
+
+
+@numba.njit(cache=True, nogil=True)
+def _score(progress, clearance, speed, admissible, wp, wc, ws, scores):  # pragma: no cover
+    """Compiled :func:`select`: fills scores (-inf where not admissible), returns the argmax
+    (first of equals, -1 when nothing is admissible)."""
+    n = progress.shape[0]
+    lo = np.full(3, np.inf)
+    hi = np.full(3, -np.inf)
+    any_ok = False
+    for i in range(n):
+        if admissible[i]:
+            any_ok = True
+            for q, val in enumerate((progress[i], clearance[i], speed[i])):
+                lo[q], hi[q] = min(lo[q], val), max(hi[q], val)
+    best, best_score = -1, -np.inf
+    for i in range(n):
+        if not admissible[i]:
+            scores[i] = -np.inf
+            continue
+        total = 0.0
+        for q, (val, weight) in enumerate(
+            ((progress[i], wp), (clearance[i], wc), (speed[i], ws))
+        ):
+            if hi[q] > lo[q]:
+                total += weight * ((val - lo[q]) / (hi[q] - lo[q]))
+        scores[i] = total
+        if total > best_score:
+            best, best_score = i, total
+    return best if any_ok else -1
+
+
 class _DistanceField(NamedTuple):
     dist: np.ndarray  # (H*W,) float32, metres between cell centres and nearest occupied cell
     i0: int  # lattice index of column 0
@@ -233,34 +311,19 @@ def plan(
     gx, gy = float(goal[0]), float(goal[1])
     vs, ws = sample_window(v0, w0, params)
     t = rollout_steps(action.tau, params.dt)
-    ux, uy, cos_t, sin_t = unit_arcs(ws, t)  # (n_w, n)
-    cx = np.asarray(params.footprint.centers_x)
-    off_x = cos_t[:, :, None] * cx  # (n_w, n, C) circle-centre offsets
-    off_y = sin_t[:, :, None] * cx
-    n_s = len(vs) * len(ws)
-    cap = params.clearance_cap
-
-    # Progress and speed are cheap: only the end of each arc matters.
-    end_x = vs[:, None] * ux[None, :, -1]
-    end_y = vs[:, None] * uy[None, :, -1]
-    progress = (math.hypot(gx, gy) - np.hypot(gx - end_x, gy - end_y)).ravel()
-    speed = np.repeat(np.abs(vs), len(ws))
-    samples = np.column_stack((np.repeat(vs, len(ws)), np.tile(ws, len(vs))))
-
-    # Lattice box of every circle centre: positions are linear in v, so v's extremes bound it.
+    cx = np.asarray(params.footprint.centers_x, dtype=np.float64)
     res = params.grid_resolution
-    # Offsets are linear in the centre's body-axis position: the end circles bound them.
-    ends_x = (cos_t * cx.min(), cos_t * cx.max())
-    ends_y = (sin_t * cx.min(), sin_t * cx.max())
-    lo_x, hi_x = np.minimum(*ends_x), np.maximum(*ends_x)
-    lo_y, hi_y = np.minimum(*ends_y), np.maximum(*ends_y)
+    cap = params.clearance_cap
     reach = int(math.ceil(cap / res)) + 1
-    box = (
-        int(math.floor(min((vs[0] * ux + lo_x).min(), (vs[-1] * ux + lo_x).min()) / res)) - reach,
-        int(math.floor(min((vs[0] * uy + lo_y).min(), (vs[-1] * uy + lo_y).min()) / res)) - reach,
-        int(math.ceil(max((vs[0] * ux + hi_x).max(), (vs[-1] * ux + hi_x).max()) / res)) + reach,
-        int(math.ceil(max((vs[0] * uy + hi_y).max(), (vs[-1] * uy + hi_y).max()) / res)) + reach,
-    )
+    # Unit arcs, circle offsets (n_w, n, C), progress and the lattice box of every circle
+    # centre (plus reach) in one compiled pass.
+    ux, uy, off_x, off_y, progress, box = _geometry(vs, ws, t, cx, gx, gy, res, reach)
+    n_s = len(vs) * len(ws)
+    samples = np.empty((n_s, 2))
+    samples[:, 0] = np.repeat(vs, len(ws))
+    samples[:, 1] = np.tile(ws, len(vs))
+    speed = np.abs(samples[:, 0])
+
     cells = lattice(pts, res)
     inside = (
         (cells[:, 0] >= box[0])
@@ -296,7 +359,10 @@ def plan(
         np.minimum(clearance, cap, out=clearance)
 
     admissible = clearance > params.admissible_clearance + TIE_TOLERANCE
-    scores, best = select(progress, clearance, speed, admissible, action)
+    scores = np.empty(n_s)
+    best = _score(
+        progress, clearance, speed, admissible, action.wp, action.wc, action.ws, scores
+    )
     if best >= 0:
         v_cmd, w_cmd, fallback = float(samples[best, 0]), float(samples[best, 1]), False
     else:

@@ -74,8 +74,12 @@ def test_turning_in_place_reaches_commanded_rate(open_world):
     with Simulator(open_world) as sim:
         drive(sim, 0.0, 1.0, 1.0)
         assert sim.command == pytest.approx((0.0, 1.0))
-        assert sim.true_velocity()[1] == pytest.approx(1.0, abs=0.05)
-        x, y, _ = sim.true_pose()
+        # The rate over a whole second: Bullet's instantaneous wheel-contact velocity
+        # jitters by a few per cent from one 0.1 s period to the next.
+        yaw0 = sim.true_pose()[2]
+        drive(sim, 0.0, 1.0, 1.0)
+        x, y, yaw1 = sim.true_pose()
+    assert math.remainder(yaw1 - yaw0, math.tau) == pytest.approx(1.0, abs=0.03)
     assert math.hypot(x, y) < 0.02
 
 
