@@ -761,6 +761,7 @@ class Trainer:
         logs.scalar(step, "eval/mean_return", result["mean_return"])
         for world, outs in result["outcomes"].items():
             logs.scalar(step, f"eval/{world}_success", outs.count("goal") / len(outs))
+        logs.flush()  # the learning curve reads the file: the final evaluation must be on it
 
     @staticmethod
     def _score(result: Mapping[str, Any]) -> list[float]:

@@ -24,6 +24,7 @@ import csv
 import json
 import math
 import os
+import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -166,6 +167,9 @@ class ReplayResult:
     goal_source: str
     files: dict[str, Path] = field(default_factory=dict)
     status: str = "complete"
+    timing: dict[str, float] = field(default_factory=dict)
+    """Wall seconds: "read" (open the bag, decode every message, assemble the series) and
+    "decide" (observation, estimator, policy, planner and CSV row for every scan)."""
 
     def column(self, name: str) -> np.ndarray:
         """One CSV column over all rows as float64 (missing values are NaN)."""
@@ -188,6 +192,7 @@ class ReplayResult:
             "goal_source": self.goal_source,
             "notes": list(self.notes),
             "files": {k: str(v) for k, v in self.files.items()},
+            "timing_s": {k: round(v, 4) for k, v in self.timing.items()},
         }
 
 
@@ -246,6 +251,7 @@ def replay_bag(
     An exception from step_fn propagates after the rows so far are on disk and summary.json
     says "failed"; a bag that cannot be read at all leaves a "failed" summary.json too.
     """
+    started = time.perf_counter()
     try:
         bag = read_bag(bag_path, topics=topics, mount=mount, clock=clock)
         if bag.odometry is None:
@@ -283,6 +289,7 @@ def replay_bag(
     )
     for _, reason in bag.scan_rejects:
         result.skipped[reason] = result.skipped.get(reason, 0) + 1
+    result.timing["read"] = time.perf_counter() - started
 
     out = Path(out_dir) if out_dir is not None else None
     writer = None
@@ -295,8 +302,10 @@ def replay_bag(
         writer = csv.writer(handle)
         writer.writerow(CSV_COLUMNS)
         handle.flush()
+    started = time.perf_counter()
     try:
         _run(bag, step_fn, goal_xy, max_command_gap, result, writer, handle)
+        result.timing["decide"] = time.perf_counter() - started
     except BaseException as err:
         result.status = f"failed: {type(err).__name__}: {err}"
         if handle is not None:
