@@ -1,4 +1,4 @@
-"""The shipped policies in policies/ (if present) load with their method's action set."""
+"""Every learned method ships a policy in policies/, loading with its method's action set."""
 
 from __future__ import annotations
 
@@ -15,8 +15,7 @@ from d3dwa_bullet.training import load_train_config
 @pytest.mark.parametrize("method", list(LEARNED))
 def test_shipped_policy_loads_with_its_action_set(method: str) -> None:
     path = default_policy_path(method)
-    if not path.exists():
-        pytest.skip(f"no shipped policy in {path}")
+    assert path.is_dir(), f"no shipped policy in {path}"
     policy, actions, meta = load_policy(path, expected_actions=LEARNED[method])
     assert meta["method"] == method and actions.size == LEARNED[method].size
     assert meta["agent"] == ("dqdwa" if method == "dqdwa" else "d3qn")

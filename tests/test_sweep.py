@@ -90,6 +90,15 @@ def test_unseen_layouts_come_from_outside_the_training_seed_range():
     assert UNSEEN_LAYOUT_SEED_BASE >= 2**31  # training draws generator seeds in [0, 2^31)
 
 
+def test_wilson_interval_always_contains_the_observed_rate():
+    # A bound a few ulp on the wrong side of k / n once made a negative error bar and
+    # crashed matplotlib after a whole sweep had run.
+    for n in range(1, 300):
+        for k in range(n + 1):
+            lo, hi = wilson_interval(k, n)
+            assert 0.0 <= lo <= k / n <= hi <= 1.0, (k, n, lo, hi)
+
+
 def test_wilson_interval_known_values():
     lo, hi = wilson_interval(0, 10)
     assert lo == 0.0 and hi == pytest.approx(0.2775, abs=1e-4)
