@@ -90,7 +90,9 @@ def run_local(fn: JobFn, jobs: Sequence[J], config: Any, workers: int) -> Iterat
         for job in jobs:
             yield fn(job, config)
         return
-    pool = get_context("spawn").Pool(processes=min(workers, len(jobs)), initializer=_init_pool_worker)
+    pool = get_context("spawn").Pool(
+        processes=min(workers, len(jobs)), initializer=_init_pool_worker
+    )
     try:
         # chunksize 1: episodes last seconds to a minute, so balance beats batching.
         yield from pool.imap_unordered(_call, [(fn, job, config) for job in jobs], chunksize=1)

@@ -18,7 +18,9 @@ Design choices (SPEC section 4 leaves them open):
   base_link) and clearance is the Euclidean distance between cell centres, computed for all
   samples at once with OpenCV's exact distance transform; a small numba kernel reads the
   field along every rollout (vectorising that read in numpy costs ~10 passes over 120k
-  cells, more than the whole planning budget). Against continuous geometry the
+  cells, more than the whole planning budget). The sample geometry and the scoring are
+  compiled the same way (``_geometry``, ``_score``), and tests hold them equal to the numpy
+  definitions :func:`unit_arcs` and :func:`select`. Against continuous geometry the
   snapping costs at most res / sqrt(2) per end (1.4 cm at 2 cm cells); ``scripts/
   bench_planner.py`` reports the measured figure.
 * Fallback when nothing is admissible: the sample with the largest clearance over its whole
@@ -254,9 +256,7 @@ def _score(progress, clearance, speed, admissible, wp, wc, ws, scores):  # pragm
             scores[i] = -np.inf
             continue
         total = 0.0
-        for q, (val, weight) in enumerate(
-            ((progress[i], wp), (clearance[i], wc), (speed[i], ws))
-        ):
+        for q, (val, weight) in enumerate(((progress[i], wp), (clearance[i], wc), (speed[i], ws))):
             if hi[q] > lo[q]:
                 total += weight * ((val - lo[q]) / (hi[q] - lo[q]))
         scores[i] = total
@@ -360,9 +360,7 @@ def plan(
 
     admissible = clearance > params.admissible_clearance + TIE_TOLERANCE
     scores = np.empty(n_s)
-    best = _score(
-        progress, clearance, speed, admissible, action.wp, action.wc, action.ws, scores
-    )
+    best = _score(progress, clearance, speed, admissible, action.wp, action.wc, action.ws, scores)
     if best >= 0:
         v_cmd, w_cmd, fallback = float(samples[best, 0]), float(samples[best, 1]), False
     else:

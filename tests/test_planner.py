@@ -12,10 +12,13 @@ from d3dwa_bullet.errors import ConfigError, ScanError
 from d3dwa_bullet.params import PlannerParams, RobotLimits
 from d3dwa_bullet.planner import (
     PlannerAction,
+    _geometry,
+    _score,
     dynamic_window,
     normalise,
     plan,
     rollout_steps,
+    select,
     unit_arcs,
 )
 
@@ -58,6 +61,47 @@ def test_unit_arcs_match_closed_form_and_straight_line():
     assert x[1] == pytest.approx(np.sin(0.5 * t) / 0.5)
     assert y[1] == pytest.approx((1 - np.cos(0.5 * t)) / 0.5)
     assert c[1] == pytest.approx(np.cos(0.5 * t)) and s[1] == pytest.approx(np.sin(0.5 * t))
+
+
+def test_compiled_geometry_matches_the_numpy_definitions():
+    """plan() takes arcs, circle offsets, progress and the field box from one numba kernel;
+    they must equal unit_arcs(), the offset definition and the end-point progress."""
+    ws = np.array([-1.3, -0.2, 0.0, 0.4, 2.0])
+    vs = np.linspace(0.05, 0.3, 4)
+    t = rollout_steps(3.0, 0.1)
+    cx = np.array(PlannerParams().footprint.centers_x)
+    goal = (2.0, -0.7)
+    ux, uy, off_x, off_y, progress, box = _geometry(vs, ws, t, cx, *goal, 0.02, 51)
+    x, y, c, s = unit_arcs(ws, t)
+    np.testing.assert_allclose(ux, x, atol=1e-12)
+    np.testing.assert_allclose(uy, y, atol=1e-12)
+    np.testing.assert_allclose(off_x, c[:, :, None] * cx, atol=1e-12)
+    np.testing.assert_allclose(off_y, s[:, :, None] * cx, atol=1e-12)
+    end_x, end_y = vs[:, None] * x[None, :, -1], vs[:, None] * y[None, :, -1]
+    expected = math.hypot(*goal) - np.hypot(goal[0] - end_x, goal[1] - end_y)
+    np.testing.assert_allclose(progress, expected.ravel(), atol=1e-12)
+    centres_x = vs[:, None, None, None] * x[None, :, :, None] + c[None, :, :, None] * cx
+    centres_y = vs[:, None, None, None] * y[None, :, :, None] + s[None, :, :, None] * cx
+    i = np.floor(centres_x / 0.02 + 0.5)
+    j = np.floor(centres_y / 0.02 + 0.5)
+    # Every circle centre's cell lies inside the box, which is tight up to the reach.
+    assert box[0] + 51 <= i.min() <= box[0] + 52 and box[2] - 52 <= i.max() <= box[2] - 51
+    assert box[1] + 51 <= j.min() <= box[1] + 52 and box[3] - 52 <= j.max() <= box[3] - 51
+
+
+def test_compiled_scoring_matches_select():
+    rng = np.random.default_rng(3)
+    for trial in range(50):
+        n = 60
+        progress, clearance, speed = rng.normal(size=(3, n))
+        speed[: trial % 3] = 0.5  # some criteria constant over small sets
+        admissible = rng.random(n) < (0.0 if trial == 0 else 0.5)
+        action = PlannerAction(*rng.choice([1.0, 2.0, 3.0], 3), 4.0)
+        scores = np.empty(n)
+        best = _score(progress, clearance, speed, admissible, *action[:3], scores)
+        ref_scores, ref_best = select(progress, clearance, speed, admissible, action)
+        assert best == ref_best
+        np.testing.assert_allclose(scores, ref_scores, atol=1e-12)
 
 
 def test_normalise_maps_admissible_set_to_unit_interval_and_constant_to_zero():
