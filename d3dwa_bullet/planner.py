@@ -19,8 +19,9 @@ Design choices (SPEC section 4 leaves them open):
   samples at once with OpenCV's exact distance transform; a small numba kernel reads the
   field along every rollout (vectorising that read in numpy costs ~10 passes over 120k
   cells, more than the whole planning budget). The sample geometry and the scoring are
-  compiled the same way (``_geometry``, ``_score``), and tests hold them equal to the numpy
-  definitions :func:`unit_arcs` and :func:`select`. Against continuous geometry the
+  compiled the same way (``_geometry``, ``_score``); tests hold them to the closed-form
+  arcs and to the brute-force reference's normalisation and selection. Against continuous
+  geometry the
   snapping costs at most res / sqrt(2) per end (1.4 cm at 2 cm cells); ``scripts/
   bench_planner.py`` reports the measured figure.
 * Fallback when nothing is admissible: the sample with the largest clearance over its whole
@@ -114,52 +115,6 @@ def rollout_steps(tau: float, dt: float) -> np.ndarray:
     return dt * np.arange(1, n + 1)
 
 
-def unit_arcs(
-    ws: np.ndarray, t: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Pose after time t at unit speed v = 1 and turn rate w: (X, Y, cos theta, sin theta).
-
-    Each is (n_w, n). Under constant (v, w) the position is v * (X, Y) and the heading
-    theta = w t, so one table per w serves every v. Straight lines (w = 0) are exact.
-    """
-    theta = ws[:, None] * t[None, :]
-    cos_t, sin_t = np.cos(theta), np.sin(theta)
-    turning = np.abs(ws)[:, None] > 1e-9
-    w_safe = np.where(turning, ws[:, None], 1.0)
-    x = np.where(turning, sin_t / w_safe, t[None, :])
-    y = np.where(turning, (1.0 - cos_t) / w_safe, 0.0)
-    return x, y, cos_t, sin_t
-
-
-def normalise(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Min-max normalise values to [0, 1] across mask; a constant criterion gives 0."""
-    out = np.zeros_like(values)
-    if not mask.any():
-        return out
-    sel = values[mask]
-    lo, hi = sel.min(), sel.max()
-    if hi > lo:
-        out[mask] = (sel - lo) / (hi - lo)
-    return out
-
-
-def select(
-    progress: np.ndarray,
-    clearance: np.ndarray,
-    speed: np.ndarray,
-    admissible: np.ndarray,
-    action: PlannerAction,
-) -> tuple[np.ndarray, int]:
-    """Scores J over the admissible set (-inf elsewhere) and the argmax (-1 if none)."""
-    scores = (
-        action.wp * normalise(progress, admissible)
-        + action.wc * normalise(clearance, admissible)
-        + action.ws * normalise(speed, admissible)
-    )
-    scores = np.where(admissible, scores, -np.inf)
-    return scores, (int(np.argmax(scores)) if admissible.any() else -1)
-
-
 @numba.njit(cache=True, nogil=True)
 def _sample_clearance(dist, width, vs, ux, uy, off_x, off_y, stop_below, out):  # pragma: no cover
     """Per sample, the smallest field value over its rollout steps and circles.
@@ -191,7 +146,9 @@ def _sample_clearance(dist, width, vs, ux, uy, off_x, off_y, stop_below, out):  
 def _geometry(vs, ws, t, cx, gx, gy, res, reach):  # pragma: no cover
     """Everything the planner needs from the sample grid before the distance field.
 
-    Returns the unit arcs ux, uy (n_w, n) (see :func:`unit_arcs`), the circle-centre
+    Returns the unit arcs ux, uy (n_w, n): the position after time t at unit speed and turn
+    rate w (sin(wt)/w, (1-cos(wt))/w; (t, 0) when straight), so v * (ux, uy) serves every
+    v; the circle-centre
     offsets off_x, off_y (n_w, n, C), the progress criterion (n_v * n_w,) and the lattice
     box (i_min, j_min, i_max, j_max) holding every circle centre of every sample, grown by
     ``reach`` cells. Positions are linear in v, so v's extremes bound them. One compiled
@@ -239,8 +196,9 @@ def _geometry(vs, ws, t, cx, gx, gy, res, reach):  # pragma: no cover
 
 @numba.njit(cache=True, nogil=True)
 def _score(progress, clearance, speed, admissible, wp, wc, ws, scores):  # pragma: no cover
-    """Compiled :func:`select`: fills scores (-inf where not admissible), returns the argmax
-    (first of equals, -1 when nothing is admissible)."""
+    """J = wp*c_p + wc*c_c + ws*c_s over criteria min-max normalised across the admissible
+    set (a constant criterion gives 0). Fills scores (-inf where not admissible) and returns
+    the argmax (first of equals, -1 when nothing is admissible)."""
     n = progress.shape[0]
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)

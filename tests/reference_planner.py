@@ -14,6 +14,30 @@ from d3dwa_bullet.params import PlannerParams
 from d3dwa_bullet.planner import TIE_TOLERANCE, PlannerAction, dynamic_window
 
 
+def normalise(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Min-max normalise values to [0, 1] across mask; a constant criterion gives 0."""
+    out = np.zeros_like(values)
+    if mask.any():
+        sel = values[mask]
+        if sel.max() > sel.min():
+            out[mask] = (sel - sel.min()) / (sel.max() - sel.min())
+    return out
+
+
+def select(progress, clearance, speed, admissible, action: PlannerAction):
+    """Scores J over the admissible set (-inf elsewhere) and the first argmax (-1 if none)."""
+    scores = (
+        action.wp * normalise(progress, admissible)
+        + action.wc * normalise(clearance, admissible)
+        + action.ws * normalise(speed, admissible)
+    )
+    best, best_score = -1, -math.inf
+    for i in range(len(scores)):
+        if admissible[i] and scores[i] > best_score:
+            best, best_score = i, scores[i]
+    return np.where(admissible, scores, -np.inf), best
+
+
 def reference_plan(
     velocity, points, goal, action: PlannerAction, params: PlannerParams = PlannerParams()
 ):
@@ -47,20 +71,7 @@ def reference_plan(
             rows.append((v, w, progress, clear, abs(v)))
     arr = np.array(rows)
     admissible = arr[:, 3] > params.admissible_clearance + TIE_TOLERANCE
-
-    def norm(col):
-        out = np.zeros(len(arr))
-        if admissible.any():
-            sel = arr[admissible, col]
-            if sel.max() > sel.min():
-                out[admissible] = (sel - sel.min()) / (sel.max() - sel.min())
-        return out
-
-    scores = action.wp * norm(2) + action.wc * norm(3) + action.ws * norm(4)
-    best, best_score = -1, -math.inf
-    for i in range(len(arr)):
-        if admissible[i] and scores[i] > best_score:
-            best, best_score = i, scores[i]
+    _, best = select(arr[:, 2], arr[:, 3], arr[:, 4], admissible, action)
     if best < 0:
         return None, None, -1, arr[:, 3], admissible
     return arr[best, 0], arr[best, 1], best, arr[:, 3], admissible

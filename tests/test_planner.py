@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from reference_planner import reference_plan
+from reference_planner import normalise, reference_plan, select
 
 from d3dwa_bullet.errors import ConfigError, ScanError
 from d3dwa_bullet.params import PlannerParams, RobotLimits
@@ -15,11 +15,8 @@ from d3dwa_bullet.planner import (
     _geometry,
     _score,
     dynamic_window,
-    normalise,
     plan,
     rollout_steps,
-    select,
-    unit_arcs,
 )
 
 SMALL = PlannerParams(n_v=5, n_w=9)
@@ -53,35 +50,28 @@ def test_window_never_allows_reverse_or_overspeed():
             assert -lim.w_max <= w_lo <= w_hi <= lim.w_max
 
 
-def test_unit_arcs_match_closed_form_and_straight_line():
+def test_compiled_geometry_is_the_closed_form_arcs_offsets_progress_and_box():
+    """plan() takes arcs, circle offsets, progress and the field box from one numba kernel."""
     t = rollout_steps(4.0, 0.1)
     assert len(t) == 40 and t[-1] == pytest.approx(4.0)
-    x, y, c, s = unit_arcs(np.array([0.0, 0.5]), t)
-    assert x[0] == pytest.approx(t) and y[0] == pytest.approx(0.0)
-    assert x[1] == pytest.approx(np.sin(0.5 * t) / 0.5)
-    assert y[1] == pytest.approx((1 - np.cos(0.5 * t)) / 0.5)
-    assert c[1] == pytest.approx(np.cos(0.5 * t)) and s[1] == pytest.approx(np.sin(0.5 * t))
-
-
-def test_compiled_geometry_matches_the_numpy_definitions():
-    """plan() takes arcs, circle offsets, progress and the field box from one numba kernel;
-    they must equal unit_arcs(), the offset definition and the end-point progress."""
     ws = np.array([-1.3, -0.2, 0.0, 0.4, 2.0])
     vs = np.linspace(0.05, 0.3, 4)
-    t = rollout_steps(3.0, 0.1)
     cx = np.array(PlannerParams().footprint.centers_x)
     goal = (2.0, -0.7)
     ux, uy, off_x, off_y, progress, box = _geometry(vs, ws, t, cx, *goal, 0.02, 51)
-    x, y, c, s = unit_arcs(ws, t)
-    np.testing.assert_allclose(ux, x, atol=1e-12)
-    np.testing.assert_allclose(uy, y, atol=1e-12)
-    np.testing.assert_allclose(off_x, c[:, :, None] * cx, atol=1e-12)
-    np.testing.assert_allclose(off_y, s[:, :, None] * cx, atol=1e-12)
-    end_x, end_y = vs[:, None] * x[None, :, -1], vs[:, None] * y[None, :, -1]
+    assert ux[2] == pytest.approx(t) and uy[2] == pytest.approx(0.0)  # w = 0: straight
+    th = ws[:, None] * t[None, :]
+    turn = ws != 0.0
+    w = ws[turn, None]
+    np.testing.assert_allclose(ux[turn], np.sin(th[turn]) / w, atol=1e-12)
+    np.testing.assert_allclose(uy[turn], (1 - np.cos(th[turn])) / w, atol=1e-12)
+    np.testing.assert_allclose(off_x, np.cos(th)[:, :, None] * cx, atol=1e-12)
+    np.testing.assert_allclose(off_y, np.sin(th)[:, :, None] * cx, atol=1e-12)
+    end_x, end_y = vs[:, None] * ux[None, :, -1], vs[:, None] * uy[None, :, -1]
     expected = math.hypot(*goal) - np.hypot(goal[0] - end_x, goal[1] - end_y)
     np.testing.assert_allclose(progress, expected.ravel(), atol=1e-12)
-    centres_x = vs[:, None, None, None] * x[None, :, :, None] + c[None, :, :, None] * cx
-    centres_y = vs[:, None, None, None] * y[None, :, :, None] + s[None, :, :, None] * cx
+    centres_x = vs[:, None, None, None] * ux[None, :, :, None] + off_x[None]
+    centres_y = vs[:, None, None, None] * uy[None, :, :, None] + off_y[None]
     i = np.floor(centres_x / 0.02 + 0.5)
     j = np.floor(centres_y / 0.02 + 0.5)
     # Every circle centre's cell lies inside the box, which is tight up to the reach.
@@ -104,12 +94,16 @@ def test_compiled_scoring_matches_select():
         np.testing.assert_allclose(scores, ref_scores, atol=1e-12)
 
 
-def test_normalise_maps_admissible_set_to_unit_interval_and_constant_to_zero():
+def test_scoring_normalises_over_admissible_set_and_constant_criterion_to_zero():
     vals = np.array([1.0, 3.0, 5.0, 100.0])
     mask = np.array([True, True, True, False])
-    assert normalise(vals, mask) == pytest.approx([0.0, 0.5, 1.0, 0.0])
-    assert normalise(np.full(4, 2.0), mask) == pytest.approx(0.0)
-    assert normalise(vals, np.zeros(4, bool)) == pytest.approx(0.0)
+    const, scores = np.full(4, 2.0), np.empty(4)
+    assert _score(vals, const, const, mask, 1.0, 1.0, 1.0, scores) == 2
+    assert scores == pytest.approx([0.0, 0.5, 1.0, -np.inf])
+    assert _score(const, const, const, mask, 1.0, 1.0, 1.0, scores) == 0  # first of equals
+    assert scores[:3] == pytest.approx(0.0)
+    assert _score(vals, vals, vals, np.zeros(4, bool), 1.0, 1.0, 1.0, scores) == -1
+    assert np.isneginf(scores).all()
 
 
 def test_open_space_goes_straight_at_the_goal_with_progress_weight():
