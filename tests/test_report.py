@@ -10,30 +10,13 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import pytest
-import yaml
 
 from d3dwa_bullet import REPO_ROOT, evaluation
 from d3dwa_bullet.cli import main
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.report import write_report, write_table_page
 
-TINY = {
-    "name": "tiny",
-    "group": "custom",
-    "description": "a post beside the way",
-    "start": [0.0, 0.0, 0.0],
-    "goal": [1.6, 0.0],
-    "time_limit": 1.0,
-    "obstacles": [{"type": "cylinder", "center": [0.8, 0.35], "radius": 0.1}],
-}
 IMAGE = re.compile(r"!\[[^\]]*\]\(([^)]+)\)")
-
-
-@pytest.fixture(scope="module")
-def tiny_world(tmp_path_factory):
-    path = tmp_path_factory.mktemp("worlds") / "tiny.yaml"
-    path.write_text(yaml.safe_dump(TINY))
-    return str(path)
 
 
 def eval_args(world: str, out: Path, seeds: int = 1) -> list[str]:
@@ -42,9 +25,9 @@ def eval_args(world: str, out: Path, seeds: int = 1) -> list[str]:
 
 
 @pytest.fixture(scope="module")
-def eval_dir(tiny_world, tmp_path_factory):
+def eval_dir(one_second_world, tmp_path_factory):
     out = tmp_path_factory.mktemp("eval")
-    assert main(eval_args(tiny_world, out)) == 0
+    assert main(eval_args(one_second_world, out)) == 0
     return out
 
 
@@ -79,8 +62,10 @@ def test_eval_report_embeds_tables_figures_and_learning_curves(eval_dir, policie
     assert "figures/learning_curve_d3dwa.png" in links and "dqdwa" not in " ".join(links)
 
 
-def test_interrupted_run_leaves_no_table_and_an_honest_page(tiny_world, tmp_path, monkeypatch):
-    assert main(eval_args(tiny_world, tmp_path)) == 0
+def test_interrupted_run_leaves_no_table_and_an_honest_page(
+    one_second_world, tmp_path, monkeypatch
+):
+    assert main(eval_args(one_second_world, tmp_path)) == 0
     assert (tmp_path / "table.md").exists()
     real, calls = evaluation.run_job, []
 
@@ -91,7 +76,7 @@ def test_interrupted_run_leaves_no_table_and_an_honest_page(tiny_world, tmp_path
         return real(job, cfg)
 
     monkeypatch.setattr(evaluation, "run_job", interrupted)
-    assert main(eval_args(tiny_world, tmp_path, seeds=3)) == 130
+    assert main(eval_args(one_second_world, tmp_path, seeds=3)) == 130
     assert not (tmp_path / "table.md").exists()  # the old table would pose as this run's
     report = write_report(tmp_path, policies_dir=tmp_path / "none")
     assert (report.done, report.expected, report.complete) == (3, 6, False)
@@ -103,8 +88,8 @@ def test_interrupted_run_leaves_no_table_and_an_honest_page(tiny_world, tmp_path
     assert not (tmp_path / "t.md").exists()
 
 
-def test_sweep_report(tiny_world, tmp_path, capsys):
-    args = ["sweep", "--methods", "dwa1", "--worlds", tiny_world, "--layouts", "0",
+def test_sweep_report(one_second_world, tmp_path, capsys):
+    args = ["sweep", "--methods", "dwa1", "--worlds", one_second_world, "--layouts", "0",
             "--levels", "1", "--axes", "lidar_dropout", "--profiles", "none,paper", "--seeds", "1",
             "--out", str(tmp_path), "--workers", "1", "--json"]  # fmt: skip
     assert main(args) == 0
@@ -150,11 +135,11 @@ def load_script(name: str):
     return module
 
 
-def test_reproduce_tables_writes_both_table_pages(tiny_world, tmp_path):
+def test_reproduce_tables_writes_both_table_pages(one_second_world, tmp_path):
     script = load_script("reproduce_tables")
     written = script.run(
         methods=["dwa1"], seeds=1, workers=1, out=tmp_path / "results",
-        tables=tmp_path / "tables", table1_worlds=[tiny_world], table2_worlds=[tiny_world],
+        tables=tmp_path / "tables", table1_worlds=[one_second_world], table2_worlds=[one_second_world],
         quiet=True,
     )  # fmt: skip
     assert set(written) == {"table1", "table2"}

@@ -15,7 +15,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
 from d3dwa_bullet import evaluation
 from d3dwa_bullet.cli import main
@@ -35,23 +34,6 @@ from d3dwa_bullet.sweep import (
     t_interval,
     wilson_interval,
 )
-
-TINY = {
-    "name": "tiny",
-    "group": "custom",
-    "description": "a post beside the way",
-    "start": [0.0, 0.0, 0.0],
-    "goal": [1.6, 0.0],
-    "time_limit": 1.0,
-    "obstacles": [{"type": "cylinder", "center": [0.8, 0.35], "radius": 0.1}],
-}
-
-
-@pytest.fixture(scope="module")
-def tiny_world(tmp_path_factory):
-    path = tmp_path_factory.mktemp("worlds") / "tiny.yaml"
-    path.write_text(yaml.safe_dump(TINY))
-    return str(path)
 
 
 def tiny_settings(world: str, **kw) -> SweepSettings:
@@ -129,9 +111,9 @@ def test_settings_refuse_bad_input(kw, message):
 
 
 @pytest.fixture(scope="module")
-def tiny_sweep(tiny_world, tmp_path_factory):
+def tiny_sweep(one_second_world, tmp_path_factory):
     out = tmp_path_factory.mktemp("sweep")
-    rows, complete = run_sweep(tiny_settings(tiny_world), out, progress=False)
+    rows, complete = run_sweep(tiny_settings(one_second_world), out, progress=False)
     return out, rows, complete
 
 
@@ -151,8 +133,8 @@ def test_sweep_writes_rows_tables_and_one_plot_per_axis(tiny_sweep):
     assert "### wheel slip ratio" in page and "| DWA III (2,1,1) | shipped |" in page
 
 
-def test_resume_runs_only_missing_episodes(tiny_world, tmp_path, monkeypatch):
-    settings = tiny_settings(tiny_world, methods=("dwa1",))
+def test_resume_runs_only_missing_episodes(one_second_world, tmp_path, monkeypatch):
+    settings = tiny_settings(one_second_world, methods=("dwa1",))
     jobs = sweep_jobs(settings)
     # "Interrupted" after two episodes: a run over a prefix of the job list.
     evaluate(jobs[:2], tmp_path, progress=False, fields=SWEEP_FIELDS)
@@ -170,8 +152,8 @@ def test_resume_runs_only_missing_episodes(tiny_world, tmp_path, monkeypatch):
     assert len(keys) == len(set(keys)) == 4
 
 
-def test_a_row_cut_by_a_kill_is_dropped_and_rerun(tiny_world, tmp_path):
-    settings = tiny_settings(tiny_world, methods=("dwa1",), axes=(), profiles=("none",))
+def test_a_row_cut_by_a_kill_is_dropped_and_rerun(one_second_world, tmp_path):
+    settings = tiny_settings(one_second_world, methods=("dwa1",), axes=(), profiles=("none",))
     run_sweep(settings, tmp_path, progress=False, figures=False)
     path = tmp_path / "results.csv"
     full = path.read_text()
@@ -201,11 +183,11 @@ def alive(pid: int) -> bool:
 
 @pytest.mark.slow
 @pytest.mark.parametrize(("sig", "workers"), [(signal.SIGKILL, 1), (signal.SIGTERM, 2)])
-def test_killed_sweep_resumes_without_loss_or_duplicates(sig, workers, tiny_world, tmp_path):
+def test_killed_sweep_resumes_without_loss_or_duplicates(sig, workers, one_second_world, tmp_path):
     """A real kill mid-run, then the same command again. SIGKILL may cut a row in half;
     SIGTERM must also take the pool's worker processes down with the sweep."""
     argv = [sys.executable, "-m", "d3dwa_bullet.cli", "sweep", "--methods", "dwa1,dwa3",
-            "--worlds", tiny_world, "--layouts", "0", "--levels", "2", "--seeds", "2",
+            "--worlds", one_second_world, "--layouts", "0", "--levels", "2", "--seeds", "2",
             "--profiles", "none,real", "--out", str(tmp_path), "--workers", str(workers),
             "--json"]  # fmt: skip
     total = 2 * 2 * (1 + 8 + 1)
@@ -253,20 +235,20 @@ def test_cli_sweep_bad_input_exits_2_with_one_line(extra, message, tmp_path, cap
     assert not (tmp_path / "o" / "results.csv").exists()
 
 
-def test_cli_sweep_refuses_an_eval_directory(tiny_world, tmp_path, capsys):
+def test_cli_sweep_refuses_an_eval_directory(one_second_world, tmp_path, capsys):
     out = str(tmp_path)
-    assert main(["eval", "--methods", "dwa1", "--worlds", tiny_world, "--out", out,
+    assert main(["eval", "--methods", "dwa1", "--worlds", one_second_world, "--out", out,
                  "--workers", "1", "--json"]) == 0  # fmt: skip
     capsys.readouterr()
-    args = ["sweep", "--methods", "dwa1", "--worlds", tiny_world, "--layouts", "0",
+    args = ["sweep", "--methods", "dwa1", "--worlds", one_second_world, "--layouts", "0",
             "--out", out, "--workers", "1"]  # fmt: skip
     assert main(args) == 2
     err = capsys.readouterr().err
     assert "written by 'eval'" in err and "use another --out" in err
 
 
-def test_cli_sweep_json_summary(tiny_world, tmp_path, capsys):
-    args = ["sweep", "--methods", "dwa1", "--worlds", tiny_world, "--layouts", "0", "--levels",
+def test_cli_sweep_json_summary(one_second_world, tmp_path, capsys):
+    args = ["sweep", "--methods", "dwa1", "--worlds", one_second_world, "--layouts", "0", "--levels",
             "1", "--axes", "lidar_range", "--profiles", "", "--seeds", "2", "--out",
             str(tmp_path), "--workers", "1", "--json"]  # fmt: skip
     assert main(args) == 0
