@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bag_messages import scan_msg
 
 from d3dwa_bullet import transfer_bridge
 from d3dwa_bullet.cli import main
@@ -141,23 +142,6 @@ def test_a_recording_that_fails_halfway_keeps_its_steps(tmp_path, capsys, monkey
 # -- bad input -------------------------------------------------------------------------
 
 
-def scan_message(rec: BagRecorder, stamp_ns: int, ranges: list[float]):
-    ranges_f32 = np.asarray(ranges, dtype=np.float32)
-    return rec.message(
-        LASER_SCAN,
-        header=rec.header(stamp_ns, "lidar_link"),
-        angle_min=-1.0,
-        angle_max=-1.0 + 0.1 * max(ranges_f32.size - 1, 0),
-        angle_increment=0.1,
-        time_increment=0.0,
-        scan_time=0.0,
-        range_min=0.05,
-        range_max=10.0,
-        ranges=ranges_f32,
-        intensities=np.zeros(0, dtype=np.float32),
-    )
-
-
 def write_bag(
     path: Path,
     scans: list[list[float]] | None = None,
@@ -172,10 +156,10 @@ def write_bag(
         for k, ranges in enumerate(scans or [], start=1):
             t = k * 100 * MS
             if k == corrupt_at:
-                data = bytes(rec.typestore.serialize_cdr(scan_message(rec, t, ranges), LASER_SCAN))
+                data = bytes(rec.typestore.serialize_cdr(scan_msg(rec, t, ranges), LASER_SCAN))
                 rec.write_raw(TOPICS.scan, LASER_SCAN, t, data[:30])
             else:
-                rec.write_message(TOPICS.scan, LASER_SCAN, t, scan_message(rec, t, ranges))
+                rec.write_message(TOPICS.scan, LASER_SCAN, t, scan_msg(rec, t, ranges))
     return path
 
 

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from bag_messages import scan_msg
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -16,23 +17,6 @@ from transfer.topics import LASER_SCAN, POSE_STAMPED, TF_MESSAGE, TopicMap
 from transfer.transforms import quaternion_from_yaw, yaw_from_quaternion
 
 MS = 1_000_000
-
-
-def scan_msg(rec, stamp_ns, ranges, frame="lidar_link", angle_min=-2.0, inc=0.1):
-    ranges = np.asarray(ranges, dtype=np.float32)
-    return rec.message(
-        LASER_SCAN,
-        header=rec.header(stamp_ns, frame),
-        angle_min=angle_min,
-        angle_max=angle_min + inc * max(ranges.size - 1, 0),
-        angle_increment=inc,
-        time_increment=0.0,
-        scan_time=0.0,
-        range_min=0.05,
-        range_max=10.0,
-        ranges=ranges,
-        intensities=np.zeros(0, dtype=np.float32),
-    )
 
 
 def tf_msg(rec, parent, child, xyz, quat):

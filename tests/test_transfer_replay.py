@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pytest
+from bag_messages import scan_msg
 
 from d3dwa_bullet.errors import BagFormatError
 from d3dwa_bullet.observation import build_observation
@@ -53,23 +54,6 @@ def read_csv(path):
     with path.open(newline="") as f:
         rows = list(csv.reader(f))
     return rows[0], rows[1:]
-
-
-def scan_msg(rec, stamp_ns, ranges):
-    ranges = np.asarray(ranges, dtype=np.float32)
-    return rec.message(
-        LASER_SCAN,
-        header=rec.header(stamp_ns, "lidar_link"),
-        angle_min=-1.0,
-        angle_max=-1.0 + 0.1 * max(ranges.size - 1, 0),
-        angle_increment=0.1,
-        time_increment=0.0,
-        scan_time=0.0,
-        range_min=0.05,
-        range_max=10.0,
-        ranges=ranges,
-        intensities=np.zeros(0, dtype=np.float32),
-    )
 
 
 def test_replay_feeds_the_step_function_and_writes_everything(tmp_path):
