@@ -113,13 +113,7 @@ def trajectory_figure(
     if lc is not None:
         fig.colorbar(lc, ax=axes[0].tolist(), label=label, shrink=0.85)
     fig.suptitle(title or f"{world.name}: {world.description}", fontsize=10)
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.stem + ".tmp.png")
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    os.replace(tmp, out)
-    return out
+    return _save(fig, path)
 
 
 def method_colours(methods: Sequence[str]) -> dict[str, tuple]:
