@@ -570,3 +570,23 @@ def footprint_reachable(
     _, ii, jj = np.unravel_index(reached, (k, ny, nx))
     pts = field.point_of(np.column_stack((ii, jj)))
     return bool((np.hypot(*(pts - np.asarray(world.goal)).T) <= goal_tolerance).any())
+
+
+def geodesic_field(
+    world: World,
+    resolution: float = DEFAULT_RESOLUTION,
+    inflation: float = DEFAULT_INFLATION,
+    margin: float = DEFAULT_MARGIN,
+) -> Grid:
+    """Length of the shortest route from every cell to the goal, m (inf where the cell is
+    blocked or cut off), with obstacles inflated by ``inflation``: 8-connected Dijkstra from
+    the goal cell, which counts as free. Privileged map knowledge: for diagnostics such as
+    :mod:`d3dwa_bullet.oracle`, never for the observation."""
+    field = clearance_field(world, resolution, margin)
+    free = field.values > inflation
+    gi, gj = field.cell_of(np.array([world.goal], dtype=np.float64))[0]
+    free[gi, gj] = True
+    dist = dijkstra(_grid_graph(free, resolution), directed=True, indices=gi * free.shape[1] + gj)
+    dist = dist.reshape(free.shape)
+    dist[~free] = np.inf
+    return Grid(values=dist, origin=field.origin, resolution=resolution)
