@@ -25,26 +25,13 @@ from .actions import ActionSet
 from .episode import Episode, EpisodeConfig, EpisodeResult, run_episode
 from .methods import Controller
 from .observation import goal_in_body
+from .odometry import arc_step
 from .planner import plan
 from .world import World
 from .world_grid import Grid, geodesic_field
 
 ORACLE = "oracle"
 """Method name of the oracle's episodes."""
-
-
-def arc_end(
-    pose: tuple[float, float, float], v: np.ndarray, w: np.ndarray, tau: np.ndarray
-) -> np.ndarray:
-    """End points (N, 2) of unicycle arcs from ``pose`` under constant (v, w) for tau s."""
-    x, y, th = pose
-    v, w, tau = (np.asarray(a, dtype=np.float64) for a in (v, w, tau))
-    turn = th + w * tau
-    small = np.abs(w) < 1e-9
-    w_safe = np.where(small, 1.0, w)
-    ex = np.where(small, v * tau * np.cos(th), v / w_safe * (np.sin(turn) - np.sin(th)))
-    ey = np.where(small, v * tau * np.sin(th), -v / w_safe * (np.cos(turn) - np.cos(th)))
-    return np.column_stack((x + ex, y + ey))
 
 
 def oracle_choice(
@@ -59,11 +46,11 @@ def oracle_choice(
     """Index of the action whose DWA command ends closest to the goal along the map."""
     goal_body = goal_in_body(pose, goal)
     plans = [plan(velocity, points, goal_body, a, config.planner) for a in actions.actions]
-    v = np.array([p.v for p in plans])
-    w = np.array([p.w for p in plans])
-    tau = np.array([a.tau for a in actions.actions])
-    ends = arc_end(pose, v, w, tau)
-    cells = route.cell_of(ends)
+    # each command held for its action's horizon: the exact unicycle arc of the odometry
+    ends = [
+        arc_step(*pose, p.v, p.w, a.tau)[:2] for p, a in zip(plans, actions.actions, strict=True)
+    ]
+    cells = route.cell_of(np.asarray(ends))
     remaining = route.values[cells[:, 0], cells[:, 1]]
     remaining[[p.fallback for p in plans]] = np.inf
     return int(np.argmin(remaining))  # the first of equals; 0 if every end is blocked

@@ -13,7 +13,8 @@ from d3dwa_bullet import REPO_ROOT
 from d3dwa_bullet.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
 from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.observation import goal_in_body
-from d3dwa_bullet.oracle import ORACLE, arc_end, fixed_action_outcome, oracle_choice, run_oracle
+from d3dwa_bullet.odometry import arc_step
+from d3dwa_bullet.oracle import ORACLE, fixed_action_outcome, oracle_choice, run_oracle
 from d3dwa_bullet.planner import plan
 from d3dwa_bullet.world import Box, World
 from d3dwa_bullet.world_grid import geodesic_field
@@ -43,16 +44,15 @@ def test_geodesic_field_goes_round_a_wall_and_marks_it_blocked():
     assert math.isinf(_at(route, 1.0, 0.0))  # inside the inflated wall
 
 
-def test_arc_end_matches_the_closed_forms():
-    ends = arc_end((1.0, 2.0, 0.0), np.array([0.4, 1.0, 0.0]), np.array([0.0, math.pi / 2, 1.0]),
-                   np.array([2.0, 1.0, 3.0]))  # fmt: skip
-    assert ends[0] == pytest.approx([1.8, 2.0])  # straight ahead
+def test_arc_step_over_a_whole_horizon_matches_the_closed_forms():
+    # the oracle holds each command for its action's tau (2-5 s), far beyond one control period
+    assert arc_step(1.0, 2.0, 0.0, 0.4, 0.0, 2.0)[:2] == pytest.approx((1.8, 2.0))  # straight
     r = 2 / math.pi  # quarter circle to the left: radius v / w
-    assert ends[1] == pytest.approx([1.0 + r, 2.0 + r])
-    assert ends[2] == pytest.approx([1.0, 2.0])  # turning in place
+    assert arc_step(1.0, 2.0, 0.0, 1.0, math.pi / 2, 1.0)[:2] == pytest.approx((1.0 + r, 2.0 + r))
+    assert arc_step(1.0, 2.0, 0.0, 0.0, 1.0, 3.0)[:2] == pytest.approx((1.0, 2.0))  # in place
 
 
-def test_arc_end_agrees_with_integrating_the_unicycle():
+def test_arc_step_over_a_whole_horizon_agrees_with_integrating_the_unicycle():
     pose, v, w, tau = (0.3, -0.2, 0.7), 0.35, -1.3, 4.0
     x, y, th = pose
     n = 40000
@@ -60,7 +60,7 @@ def test_arc_end_agrees_with_integrating_the_unicycle():
         x += v * math.cos(th) * tau / n
         y += v * math.sin(th) * tau / n
         th += w * tau / n
-    assert arc_end(pose, [v], [w], [tau])[0] == pytest.approx([x, y], abs=1e-4)
+    assert arc_step(*pose, v, w, tau)[:2] == pytest.approx((x, y), abs=1e-4)
 
 
 def test_oracle_prefers_the_action_heading_round_the_wall_not_into_it():
@@ -76,9 +76,9 @@ def test_oracle_prefers_the_action_heading_round_the_wall_not_into_it():
     # the chosen command's arc end is no farther along the route than any other action's
     gb = goal_in_body((0.5, 0.0, 0.0), world.goal)
     plans = [plan((0.2, 0.0), points, gb, a, config.planner) for a in ACTIONS_FULL.actions]
-    ends = arc_end((0.5, 0.0, 0.0), [p.v for p in plans], [p.w for p in plans],
-                   [a.tau for a in ACTIONS_FULL.actions])  # fmt: skip
-    cells = route.cell_of(ends)
+    ends = [arc_step(0.5, 0.0, 0.0, p.v, p.w, a.tau)[:2]
+            for p, a in zip(plans, ACTIONS_FULL.actions, strict=True)]  # fmt: skip
+    cells = route.cell_of(np.asarray(ends))
     remaining = route.values[cells[:, 0], cells[:, 1]]
     assert remaining[index] == remaining.min()
     assert remaining[index] < _at(route, 0.5, 0.0)  # it makes progress along the route
