@@ -19,9 +19,10 @@ Every episode draws its task from the env's seeded generator: a world from ``wor
 sampled per episode with ``randomization.episode_noise``. The draw is::
 
     episode_seed = env.np_random.integers(2**63 - 1)
-    task, layout, noise = SeedSequence(episode_seed).spawn(3)
+    task, layout, noise, start = SeedSequence(episode_seed).spawn(4)
 
-so ``reset(seed=s)`` always gives the same episode, bit for bit (DIRECT mode). Worlds of
+With ``route_start_prob`` > 0 an episode on one of ``worlds`` may start part-way along
+the world's route (``route_start``, a training aid; info["route_start"] says so). So ``reset(seed=s)`` always gives the same episode, bit for bit (DIRECT mode). Worlds of
 the evaluation-only groups (``unseen``: US1, H1-H3; ``real``: R1-R3) are refused with
 ConfigError unless ``allow_eval_worlds=True``: training never sees them. R-style layouts
 from the generators are training material; the R1-R3 files themselves are not.
@@ -104,6 +105,9 @@ class D3DWAEnv(gym.Env):
     weights_only: the 25-action set with tau = 4 s (ignored when ``actions`` is given).
     reward_scale: multiplies every reward term (RewardParams.scale).
     allow_eval_worlds: permit the unseen/real worlds (evaluation only, never training).
+    route_start_prob: probability that an episode on one of ``worlds`` starts at a random
+        point of the first ``route_start_span`` of its route instead of its own start
+        (``route_start``; never for generated layouts or a world pinned by reset options).
     """
 
     metadata: dict[str, Any] = {"render_modes": []}
@@ -121,8 +125,17 @@ class D3DWAEnv(gym.Env):
         reward_params: RewardParams | None = None,
         episode_config: EpisodeConfig = EpisodeConfig(),
         allow_eval_worlds: bool = False,
+        route_start_prob: float = 0.0,
+        route_start_span: float = 0.8,
     ) -> None:
         super().__init__()
+        if not 0.0 <= route_start_prob <= 1.0:
+            raise ConfigError(f"route_start_prob must be in [0, 1], got {route_start_prob!r}")
+        if not 0.0 < route_start_span < 1.0:
+            raise ConfigError(f"route_start_span must be in (0, 1), got {route_start_span!r}")
+        self.route_start_prob = float(route_start_prob)
+        self.route_start_span = float(route_start_span)
+        self._routes: dict[int, np.ndarray] = {}
         self.allow_eval_worlds = bool(allow_eval_worlds)
         self.worlds = tuple(resolve_world(w, self.allow_eval_worlds) for w in worlds)
         self.generators = tuple(str(g) for g in generators)
@@ -178,6 +191,8 @@ class D3DWAEnv(gym.Env):
         self.task: str | None = None
         self.noise_name = "none"
         self.episode_seed = 0
+        self.route_started = False
+        """True when the current episode starts part-way along its world's route."""
         self._obs = np.zeros(self.observation_space.shape, dtype=np.float32)
 
     # --- sampling -------------------------------------------------------------------------
@@ -229,8 +244,11 @@ class D3DWAEnv(gym.Env):
         return episode_noise(profile, seed)
 
     def _draw(self, episode_seed: int, options: Mapping[str, Any]) -> tuple[str, World, str, int]:
-        """(task, world, noise profile, noise seed) of an episode, from its seed alone."""
-        task_seq, layout_seq, noise_seq = np.random.SeedSequence(episode_seed).spawn(3)
+        """(task, world, noise profile, noise seed) of an episode, from its seed alone.
+
+        The world is a route-start copy (``self.route_started``) with probability
+        ``route_start_prob`` when it is one of ``worlds``."""
+        task_seq, layout_seq, noise_seq, start_seq = np.random.SeedSequence(episode_seed).spawn(4)
         rng = np.random.default_rng(task_seq)
         # draw both choices every time so pinning one option leaves the other's draw unchanged
         task_i = int(rng.choice(len(self.tasks), p=self.task_probabilities))
@@ -242,7 +260,13 @@ class D3DWAEnv(gym.Env):
             return world.name, world, noise_name, noise_seed
         task = self.tasks[task_i]
         if task_i < len(self.worlds):
-            return task, self.worlds[task_i], noise_name, noise_seed
+            world = self.worlds[task_i]
+            if self.route_start_prob > 0:
+                start_rng = np.random.default_rng(start_seq)
+                if start_rng.random() < self.route_start_prob:
+                    world = self._route_start(task_i, start_rng)
+                    self.route_started = True
+            return task, world, noise_name, noise_seed
         from .world_generator import generate_world
 
         layout_rng = np.random.default_rng(layout_seq)
@@ -271,6 +295,7 @@ class D3DWAEnv(gym.Env):
             episode_seed = int(options["episode_seed"])
         else:
             episode_seed = int(self.np_random.integers(2**63 - 1))
+        self.route_started = False
         task, world, noise_name, noise_seed = self._draw(episode_seed, options)
         self.episode_seed, self.task, self.world, self.noise_name = (
             episode_seed, task, world, noise_name,
@@ -347,9 +372,18 @@ class D3DWAEnv(gym.Env):
             "task": self.task,
             "noise": self.noise_name,
             "episode_seed": self.episode_seed,
+            "route_start": self.route_started,
             "goal_distance": ep.goal_distance,
             "obstacle_distance": ep.obstacle_distance,
         }
+
+    def _route_start(self, world_index: int, rng: np.random.Generator) -> World:
+        from .route_start import route_polyline, route_start
+
+        world = self.worlds[world_index]
+        if world_index not in self._routes:
+            self._routes[world_index] = route_polyline(world)
+        return route_start(world, self._routes[world_index], rng, self.route_start_span)
 
     def _close_episode(self) -> None:
         if self.episode is not None:

@@ -97,6 +97,7 @@ EPISODE_FIELDS = (
     "tau_mean",
     "fallbacks",
     "wall_time",
+    "route_start",
 )
 
 
@@ -133,6 +134,11 @@ class TrainConfig:
     """Randomisation profiles; one is drawn per episode, then sampled per episode."""
     noise_probs: tuple[float, ...] = ()
     """Weights of the noise profiles (empty: uniform)."""
+    route_start_prob: float = 0.0
+    """Probability that an episode on a training world starts at a random point along its
+    route (``route_start``) instead of the world's start; generated layouts never do."""
+    route_start_span: float = 0.8
+    """Route starts are uniform over this first fraction of the route's length."""
     curriculum: str = "adaptive"
     """Task sampling: 'uniform' (base probabilities) or 'adaptive' (favour failed tasks)."""
     curriculum_window: int = 20
@@ -194,6 +200,8 @@ class TrainConfig:
         checks: list[tuple[str, bool, str]] = [
             ("total_steps", self.total_steps >= 1, ">= 1"),
             ("generator_prob", 0.0 <= self.generator_prob <= 1.0, "in [0, 1]"),
+            ("route_start_prob", 0.0 <= self.route_start_prob <= 1.0, "in [0, 1]"),
+            ("route_start_span", 0.0 < self.route_start_span < 1.0, "in (0, 1)"),
             ("curriculum", self.curriculum in CURRICULA, f"one of {CURRICULA}"),
             ("curriculum_window", self.curriculum_window >= 1, ">= 1"),
             ("curriculum_floor", self.curriculum_floor > 0, "> 0"),
@@ -305,6 +313,8 @@ def make_env(config: TrainConfig, worlds: Sequence[str] | None = None) -> D3DWAE
         noise_probs=config.noise_probs,
         actions=config.actions,
         reward_scale=float(config.reward_scale),  # type: ignore[arg-type]
+        route_start_prob=config.route_start_prob,
+        route_start_span=config.route_start_span,
     )
 
 
@@ -328,9 +338,14 @@ class MetricsLog:
 
     def __init__(self, out: Path, tensorboard: bool = True) -> None:
         self.out = out
-        new = not (out / "episodes.csv").exists()
-        self._episodes = (out / "episodes.csv").open("a", newline="")
-        self._writer = csv.DictWriter(self._episodes, fieldnames=EPISODE_FIELDS)
+        path = out / "episodes.csv"
+        new = not path.exists()
+        fieldnames = list(EPISODE_FIELDS)
+        if not new:  # resuming: keep the file's own columns (a run from an older version)
+            with path.open(newline="") as fh:
+                fieldnames = next(csv.reader(fh), fieldnames)
+        self._episodes = path.open("a", newline="")
+        self._writer = csv.DictWriter(self._episodes, fieldnames=fieldnames, extrasaction="ignore")
         if new:
             self._writer.writeheader()
         self._metrics = (out / "metrics.jsonl").open("a")
@@ -389,6 +404,8 @@ def read_episodes(out: str | os.PathLike[str]) -> list[dict[str, Any]]:
             r[k] = int(r[k])
         for k in ("return", "epsilon", "tau_mean", "wall_time"):
             r[k] = float(r[k])
+        if "route_start" in r:
+            r["route_start"] = r["route_start"] == "True"
     return rows
 
 
@@ -890,7 +907,10 @@ class Trainer:
         self.episodes += 1
         success = int(info["outcome"] == "goal")
         task = str(info["task"])
-        self.history.setdefault(task, deque(maxlen=self.config.curriculum_window)).append(success)
+        if not info.get("route_start", False):  # the curriculum rates the tasks as evaluated
+            self.history.setdefault(task, deque(maxlen=self.config.curriculum_window)).append(
+                success
+            )
         self.recent_success.append(success)
         self.recent_returns.append(ep.ret)
         step = self.env_steps
@@ -899,7 +919,8 @@ class Trainer:
         tau_mean = sum(h * k for h, k in zip(horizons, ep.tau_counts, strict=True)) / max(n, 1)
         logs.episode({
             "step": step, "episode": self.episodes, "task": task, "world": info["world"],
-            "noise": info["noise"], "outcome": info["outcome"], "return": round(ep.ret, 6),
+            "noise": info["noise"], "route_start": bool(info.get("route_start", False)),
+            "outcome": info["outcome"], "return": round(ep.ret, 6),
             "length": n, "epsilon": round(agent.epsilon(), 5), "tau_mean": round(tau_mean, 4),
             "fallbacks": ep.fallbacks,
             "wall_time": round(self._wall0 + time.perf_counter() - self._start, 2),

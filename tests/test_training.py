@@ -27,6 +27,7 @@ from d3dwa_bullet.training import (
     Trainer,
     TrainingError,
     load_train_config,
+    read_episodes,
     read_metrics,
     train,
 )
@@ -113,6 +114,21 @@ def test_tiny_run_writes_checkpoint_config_and_metrics(tiny: str, tmp_path: Path
     assert 0 <= policy(np.full(12, 0.5)) < 100
     with pytest.raises(ConfigError, match="already holds a training run"):
         train(config, out, progress=False)
+
+
+def test_route_start_episodes_are_logged_but_not_rated_by_the_curriculum(
+    tiny: str, tmp_path: Path
+) -> None:
+    out = tmp_path / "run"
+    config = _config(tiny, total_steps=200, route_start_prob=0.5, curriculum="adaptive")
+    trainer = Trainer(config, out)
+    trainer.run(progress=False)
+    rows = read_episodes(out)
+    flags = [r["route_start"] for r in rows]
+    assert True in flags and False in flags  # both kinds were drawn
+    window = trainer.history["tiny"]
+    nominal = [int(r["outcome"] == "goal") for r in rows if not r["route_start"]]
+    assert list(window) == nominal[-config.curriculum_window :]
 
 
 def _interrupt_at(monkeypatch: pytest.MonkeyPatch, step: int) -> None:
@@ -241,6 +257,8 @@ def test_dqdwa_through_the_cli(tiny: str, tmp_path: Path, capsys: pytest.Capture
         ({"keep": "best", "eval_every": 0}, "eval_every"),
         ({"total_steps": 0}, "total_steps"),
         ({"agent": DQDWAConfig()}, "needs a D3QNConfig"),
+        ({"route_start_prob": 1.5}, "route_start_prob"),
+        ({"route_start_span": 1.0}, "route_start_span"),
     ],
 )
 def test_bad_configs_raise(changes: dict, match: str | None) -> None:
