@@ -45,6 +45,19 @@ def point_along(points: np.ndarray, s: float) -> tuple[np.ndarray, float]:
     return points[i] + t * seg[i], math.atan2(seg[i, 1], seg[i, 0])
 
 
+def route_length(points: np.ndarray) -> float:
+    """Length of a polyline, m."""
+    return float(np.hypot(*np.diff(points, axis=0).T).sum())
+
+
+def route_pose(points: np.ndarray, fraction: float) -> tuple[float, float, float]:
+    """(x, y, yaw) at ``fraction`` of the route's length, facing along the route."""
+    if not 0.0 <= fraction < 1.0:
+        raise ConfigError(f"route fraction must be in [0, 1), got {fraction!r}")
+    p, direction = point_along(points, fraction * route_length(points))
+    return float(p[0]), float(p[1]), direction
+
+
 def route_start(
     world: World,
     points: np.ndarray,
@@ -59,10 +72,6 @@ def route_start(
     """
     if not 0.0 < span < 1.0:
         raise ConfigError(f"route_start: span must be in (0, 1), got {span!r}")
-    seg = np.diff(points, axis=0)
-    length = float(np.hypot(seg[:, 0], seg[:, 1]).sum())
-    s = float(rng.uniform(0.0, span * length))
-    p, direction = point_along(points, s)
+    x, y, direction = route_pose(points, float(rng.uniform(0.0, span)))
     yaw = direction + float(rng.uniform(-heading_error, heading_error))
-    yaw = math.atan2(math.sin(yaw), math.cos(yaw))
-    return world.with_task(start=(float(p[0]), float(p[1]), yaw))
+    return world.with_task(start=(x, y, math.atan2(math.sin(yaw), math.cos(yaw))))
