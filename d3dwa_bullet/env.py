@@ -22,7 +22,8 @@ sampled per episode with ``randomization.episode_noise``. The draw is::
     task, layout, noise, start = SeedSequence(episode_seed).spawn(4)
 
 With ``route_start_prob`` > 0 an episode on one of ``worlds`` may start part-way along
-the world's route (``route_start``, a training aid; info["route_start"] says so). So ``reset(seed=s)`` always gives the same episode, bit for bit (DIRECT mode). Worlds of
+the world's route (``route_start``, a training aid; info["route_start"] says so). So
+``reset(seed=s)`` always gives the same episode, bit for bit (DIRECT mode). Worlds of
 the evaluation-only groups (``unseen``: US1, H1-H3; ``real``: R1-R3) are refused with
 ConfigError unless ``allow_eval_worlds=True``: training never sees them. R-style layouts
 from the generators are training material; the R1-R3 files themselves are not.
@@ -139,6 +140,17 @@ class D3DWAEnv(gym.Env):
         self.allow_eval_worlds = bool(allow_eval_worlds)
         self.worlds = tuple(resolve_world(w, self.allow_eval_worlds) for w in worlds)
         self.generators = tuple(str(g) for g in generators)
+        if self.route_start_prob > 0:  # a world without a route fails now, not mid-training
+            from .route_start import ROUTE_START_CLEARANCE, route_polyline
+
+            for i, world in enumerate(self.worlds):
+                try:
+                    self._routes[i] = route_polyline(world)
+                except D3DWAError as err:
+                    raise ConfigError(
+                        f"route_start_prob > 0 needs a route keeping {ROUTE_START_CLEARANCE} m "
+                        f"from obstacles in every world: {err}"
+                    ) from err
         if self.generators:
             from .world_generator import load_generator
 
@@ -378,11 +390,9 @@ class D3DWAEnv(gym.Env):
         }
 
     def _route_start(self, world_index: int, rng: np.random.Generator) -> World:
-        from .route_start import route_polyline, route_start
+        from .route_start import route_start
 
         world = self.worlds[world_index]
-        if world_index not in self._routes:
-            self._routes[world_index] = route_polyline(world)
         return route_start(world, self._routes[world_index], rng, self.route_start_span)
 
     def _close_episode(self) -> None:

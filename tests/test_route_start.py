@@ -106,6 +106,24 @@ def test_env_never_route_starts_a_generated_layout_or_a_pinned_world() -> None:
         env.close()
 
 
+def test_env_refuses_route_starts_in_a_world_without_a_clear_route(tmp_path) -> None:
+    # a 0.5 m gap: passable for the planner (> 0.40 m) but no route keeps 0.30 m
+    path = tmp_path / "slot.yaml"
+    path.write_text(
+        "name: slot\ngroup: train\ndescription: a wall with a 0.5 m slot\n"
+        "start: [0.0, 0.0, 0.0]\ngoal: [3.0, 0.0]\nobstacles:\n"
+        "  - {type: wall, start: [1.5, 0.25], end: [1.5, 3.0]}\n"
+        "  - {type: wall, start: [1.5, -0.25], end: [1.5, -3.0]}\n"
+        "  - {type: wall, start: [-1.0, 3.0], end: [4.0, 3.0]}\n"
+        "  - {type: wall, start: [-1.0, -3.0], end: [4.0, -3.0]}\n"
+        "  - {type: wall, start: [-1.0, -3.0], end: [-1.0, 3.0]}\n"
+        "  - {type: wall, start: [4.0, -3.0], end: [4.0, 3.0]}\n"
+    )
+    D3DWAEnv(worlds=(str(path),)).close()  # fine without route starts
+    with pytest.raises(ConfigError, match="route_start_prob > 0 needs a route keeping 0.3 m"):
+        D3DWAEnv(worlds=(str(path),), route_start_prob=0.5)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
