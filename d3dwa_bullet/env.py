@@ -255,10 +255,11 @@ class D3DWAEnv(gym.Env):
 
         return episode_noise(profile, seed)
 
-    def _draw(self, episode_seed: int, options: Mapping[str, Any]) -> tuple[str, World, str, int]:
-        """(task, world, noise profile, noise seed) of an episode, from its seed alone.
-
-        The world is a route-start copy (``self.route_started``) with probability
+    def _draw(
+        self, episode_seed: int, options: Mapping[str, Any]
+    ) -> tuple[str, World, str, int, bool]:
+        """(task, world, noise profile, noise seed, route start) of an episode, from its seed
+        alone. The world is a route-start copy (last item True) with probability
         ``route_start_prob`` when it is one of ``worlds``."""
         task_seq, layout_seq, noise_seq, start_seq = np.random.SeedSequence(episode_seed).spawn(4)
         rng = np.random.default_rng(task_seq)
@@ -269,16 +270,14 @@ class D3DWAEnv(gym.Env):
         noise_seed = int(noise_seq.generate_state(1, np.uint32)[0])
         if "world" in options:
             world = resolve_world(options["world"], self.allow_eval_worlds, "reset(options)")
-            return world.name, world, noise_name, noise_seed
+            return world.name, world, noise_name, noise_seed, False
         task = self.tasks[task_i]
         if task_i < len(self.worlds):
-            world = self.worlds[task_i]
             if self.route_start_prob > 0:
                 start_rng = np.random.default_rng(start_seq)
                 if start_rng.random() < self.route_start_prob:
-                    world = self._route_start(task_i, start_rng)
-                    self.route_started = True
-            return task, world, noise_name, noise_seed
+                    return task, self._route_start(task_i, start_rng), noise_name, noise_seed, True
+            return task, self.worlds[task_i], noise_name, noise_seed, False
         from .world_generator import generate_world
 
         layout_rng = np.random.default_rng(layout_seq)
@@ -290,6 +289,7 @@ class D3DWAEnv(gym.Env):
                     generate_world(task, int(layout_rng.integers(2**31))),
                     noise_name,
                     noise_seed,
+                    False,
                 )
             except ConfigError as err:  # no passable layout for that seed: draw another
                 error = err
@@ -307,10 +307,9 @@ class D3DWAEnv(gym.Env):
             episode_seed = int(options["episode_seed"])
         else:
             episode_seed = int(self.np_random.integers(2**63 - 1))
-        self.route_started = False
-        task, world, noise_name, noise_seed = self._draw(episode_seed, options)
-        self.episode_seed, self.task, self.world, self.noise_name = (
-            episode_seed, task, world, noise_name,
+        task, world, noise_name, noise_seed, route_started = self._draw(episode_seed, options)
+        self.episode_seed, self.task, self.world, self.noise_name, self.route_started = (
+            episode_seed, task, world, noise_name, route_started,
         )  # fmt: skip
         self.episode = Episode(
             world,
