@@ -20,6 +20,8 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
 from d3dwa_bullet.backends import run_local
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation import Job, run_job
@@ -30,11 +32,11 @@ from d3dwa_bullet.world import World, load_world
 DEFAULT_FRACTIONS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
 
 
-def start_world(world: World, fraction: float) -> World:
-    """The world with its start moved to ``fraction`` of its route."""
+def start_world(world: World, route: np.ndarray, fraction: float) -> World:
+    """The world with its start moved to ``fraction`` of its route (``route_polyline``)."""
     if fraction == 0.0:
         return world
-    return world.with_task(start=route_pose(route_polyline(world), fraction))
+    return world.with_task(start=route_pose(route, fraction))
 
 
 def _run(job: Job, _: Any) -> tuple[Job, dict[str, Any]]:
@@ -48,7 +50,8 @@ def probe(
     seed: int = 0, workers: int = 1,
 ) -> list[dict[str, Any]]:  # fmt: skip
     """One row per fraction: the start pose and each method's outcome from there."""
-    starts = {f: start_world(world, f) for f in fractions}
+    route = route_polyline(world)
+    starts = {f: start_world(world, route, f) for f in fractions}
     jobs = [Job(starts[f], m, seed, policy=policy) for f in fractions for m in methods]
     done = dict(run_local(_run, jobs, None, workers))
     rows = []
@@ -100,8 +103,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             fractions = [float(f) for f in args.fractions.split(",")]
         except ValueError as err:
             raise D3DWAError(f"--fractions: not a list of numbers ({err})") from err
+        route = route_polyline(world)  # WorldFormatError if no route keeps the clearance
         for f in fractions:
-            route_pose(route_polyline(world), f)  # ConfigError for a fraction outside [0, 1)
+            route_pose(route, f)  # ConfigError for a fraction outside [0, 1)
         for m in methods:
             make_controller(m, args.policy)  # a bad policy path fails here, not in a worker
     except D3DWAError as err:
