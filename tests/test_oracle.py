@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 
 import numpy as np
 import pytest
+from script_loader import load_script
 
-from d3dwa_bullet import REPO_ROOT
 from d3dwa_bullet.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
 from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.observation import goal_in_body
@@ -101,12 +100,7 @@ def test_fixed_action_episode_is_that_action_at_every_step(open_world):
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location(
-        "probe_actions", REPO_ROOT / "scripts" / "probe_actions.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("probe_actions")
 
 
 def test_probe_script_counts_fixed_actions_and_the_oracle(one_second_world, capsys):

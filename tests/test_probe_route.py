@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 
 import pytest
 import yaml
-
-from d3dwa_bullet import REPO_ROOT
+from script_loader import load_script
 
 # 6 m straight ahead with 12 s to get there: too far from the start (>= 15 s at 0.4 m/s),
 # reachable from 75 % of the way
@@ -24,12 +22,7 @@ SHORT_TIME_WORLD = {
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location(
-        "probe_route", REPO_ROOT / "scripts" / "probe_route.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("probe_route")
 
 
 @pytest.fixture

@@ -3,15 +3,15 @@ scripts/reproduce_tables.py writes the two table pages."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import re
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import pytest
+from script_loader import load_script
 
-from d3dwa_bullet import REPO_ROOT, evaluation
+from d3dwa_bullet import evaluation
 from d3dwa_bullet.cli import main
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.report import write_report, write_table_page
@@ -126,13 +126,6 @@ def test_report_bad_directory_exits_2_with_one_line(make, message, tmp_path, cap
     assert main(["report", str(make(tmp_path))]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("d3dwa: error:") and message in err and "\n" not in err
-
-
-def load_script(name: str):
-    spec = importlib.util.spec_from_file_location(name, REPO_ROOT / "scripts" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def test_reproduce_tables_writes_both_table_pages(one_second_world, tmp_path):

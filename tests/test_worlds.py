@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 from functools import cache
 
 import numpy as np
 import pytest
+from script_loader import load_script
 
-from d3dwa_bullet import REPO_ROOT
 from d3dwa_bullet.errors import WorldFormatError
 from d3dwa_bullet.params import PlannerParams
 from d3dwa_bullet.world import Box, Cylinder, World, load_world, world_paths
@@ -228,11 +227,7 @@ def test_passages_ignore_gaps_behind_a_wall():
 
 
 def test_check_worlds_script(capsys):
-    spec = importlib.util.spec_from_file_location(
-        "check_worlds", REPO_ROOT / "scripts" / "check_worlds.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = load_script("check_worlds")
     assert module.main([str(world_paths()["R1"]), "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
     assert rows[0]["name"] == "R1" and rows[0]["obstacles"] == 5
