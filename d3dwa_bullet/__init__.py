@@ -1,10 +1,16 @@
-"""d3dwa-bullet: a PyBullet sim-to-real testbed for D3DWA on a Kachaka robot."""
+"""d3dwa-bullet: a PyBullet sim-to-real testbed for D3DWA on a Kachaka robot.
 
-from pathlib import Path
+Importing the package registers the Gymnasium environment ``d3dwa_bullet/D3DWA-v0`` (by
+its entry-point string, so nothing heavy is imported here).
+"""
+
+import gymnasium
 
 __version__ = "0.1.0"
 
-#: Repository root (worlds/, urdf/ live here; the package is installed editable).
-REPO_ROOT = Path(__file__).resolve().parent.parent
-URDF_DIR = REPO_ROOT / "urdf"
-WORLDS_DIR = REPO_ROOT / "worlds"
+ENV_ID = "d3dwa_bullet/D3DWA-v0"
+
+if ENV_ID not in gymnasium.registry:
+    gymnasium.register(
+        id=ENV_ID, entry_point="d3dwa_bullet.learning.env:D3DWAEnv", disable_env_checker=False
+    )

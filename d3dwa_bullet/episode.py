@@ -15,16 +15,16 @@ from typing import Any
 
 import numpy as np
 
-from .lidar import LidarParams
-from .methods import Controller
-from .metrics import body_clearance, posture_displacement, trajectory_length
-from .noise import NoiseModel
-from .observation import build_observation, goal_in_body
-from .params import ObservationParams, PlannerParams, SimParams, TerminationParams
-from .planner import PlannerAction, PlanResult, plan
-from .scan import LaserScan, scan_points_body
-from .simulator import Simulator
-from .world import World
+from d3dwa_bullet.evaluation.metrics import body_clearance, posture_displacement, trajectory_length
+from d3dwa_bullet.methods import Controller
+from d3dwa_bullet.params import ObservationParams, PlannerParams, SimParams, TerminationParams
+from d3dwa_bullet.planning.observation import build_observation, goal_in_body
+from d3dwa_bullet.planning.planner import PlannerAction, PlanResult, plan
+from d3dwa_bullet.sim.lidar import LidarParams
+from d3dwa_bullet.sim.noise import NoiseModel
+from d3dwa_bullet.sim.scan import LaserScan, scan_points_body
+from d3dwa_bullet.sim.simulator import Simulator
+from d3dwa_bullet.world.model import World
 
 LOG_FIELDS = (
     "t",

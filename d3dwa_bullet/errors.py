@@ -42,3 +42,15 @@ class BagFormatError(D3DWAError, ValueError):
 
 class ResultsError(D3DWAError, ValueError):
     """A results directory is incomplete or from an incompatible version."""
+
+
+class InstallError(D3DWAError, RuntimeError):
+    """The installed package lacks a data folder it ships (worlds, urdf, policies, ...)."""
+
+
+class TrainingError(D3DWAError, RuntimeError):
+    """Training cannot go on (diverged weights, a replayed episode that does not match...)."""
+
+
+class BackendError(D3DWAError, RuntimeError):
+    """A backend cannot run: Ray missing, a Ray address that does not answer, a bad address."""

@@ -12,12 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import REPO_ROOT
-from .actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
-from .errors import CheckpointError, UnknownNameError
-from .planner import PlannerAction
-
-POLICIES_DIR = REPO_ROOT / "policies"
+from d3dwa_bullet.errors import CheckpointError, UnknownNameError
+from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
+from d3dwa_bullet.planning.planner import PlannerAction
+from d3dwa_bullet.resources import policies_dir
 
 FIXED: dict[str, PlannerAction] = {
     "dwa1": PlannerAction(1.0, 1.0, 2.0, 4.0),
@@ -67,7 +65,7 @@ def check_method(name: str) -> str:
 
 
 def default_policy_path(name: str) -> Path:
-    return POLICIES_DIR / name
+    return policies_dir() / name
 
 
 def make_controller(name: str, policy_path: str | Path | None = None) -> Controller:
@@ -75,7 +73,7 @@ def make_controller(name: str, policy_path: str | Path | None = None) -> Control
     check_method(name)
     if name in FIXED:
         return Controller(name, fixed=FIXED[name], source="fixed")
-    from .agents.policy import load_policy
+    from d3dwa_bullet.learning.agents.policy import load_policy
 
     path = Path(policy_path) if policy_path is not None else default_policy_path(name)
     if not path.exists():

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import ConfigError
+from d3dwa_bullet.errors import ConfigError
 
 
 @dataclass(frozen=True)

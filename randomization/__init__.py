@@ -8,11 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from d3dwa_bullet.noise import NoiseModel
-
-from .profiles import (
+from d3dwa_bullet.sim.noise import NoiseModel
+from randomization.profiles import (
     PROFILE_VERSION,
-    PROFILES_DIR,
     Profile,
     list_profiles,
     load_profile,
@@ -33,7 +31,6 @@ def episode_noise(profile: Profile, seed: int) -> NoiseModel:
 
 
 __all__ = [
-    "PROFILES_DIR",
     "PROFILE_VERSION",
     "Profile",
     "episode_noise",

@@ -34,7 +34,8 @@ import numpy as np
 import yaml
 
 from d3dwa_bullet.errors import ConfigError, ProfileError
-from d3dwa_bullet.noise import (
+from d3dwa_bullet.resources import profiles_dir
+from d3dwa_bullet.sim.noise import (
     CONFIG_GROUPS,
     INT_PARAMS,
     PARAM_DOMAINS,
@@ -44,7 +45,6 @@ from d3dwa_bullet.noise import (
 )
 
 PROFILE_VERSION = 1
-PROFILES_DIR = Path(__file__).resolve().parent / "profiles"
 #: Trial samples drawn at load time to catch cross-field conflicts (e.g. min > max).
 TRIAL_SAMPLES = 16
 #: Pairs (group, lower field, upper field) whose sampled values must stay ordered.
@@ -141,7 +141,7 @@ class Profile:
 
 def list_profiles() -> list[str]:
     """Names of the profiles shipped with the package, sorted."""
-    return sorted(p.stem for p in PROFILES_DIR.glob("*.yaml"))
+    return sorted(p.stem for p in profiles_dir().glob("*.yaml"))
 
 
 def load_profile(name_or_path: str | Path) -> Profile:
@@ -157,7 +157,7 @@ def load_profile(name_or_path: str | Path) -> Profile:
         known = list_profiles()
         if text not in known:
             raise ProfileError(f"unknown profile {text!r}; known profiles: {', '.join(known)}")
-        path = PROFILES_DIR / f"{text}.yaml"
+        path = profiles_dir() / f"{text}.yaml"
     else:
         path = Path(name_or_path)
         if not path.is_file():

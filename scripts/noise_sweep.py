@@ -13,7 +13,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from d3dwa_bullet.cli import main as d3dwa
+from d3dwa_bullet.cli.app import main as d3dwa
 
 
 def run(argv: Sequence[str]) -> int:

@@ -22,9 +22,9 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from d3dwa_bullet.cli import TABLE1_WORLDS, TABLE2_WORLDS, build_parser, default_methods
+from d3dwa_bullet.cli.app import TABLE1_WORLDS, TABLE2_WORLDS, build_parser, default_methods
 from d3dwa_bullet.errors import D3DWAError
-from d3dwa_bullet.report import write_report, write_table_page
+from d3dwa_bullet.evaluation.report import write_report, write_table_page
 
 TITLES = {
     "table1": "Table I analogue: simulation worlds (training TS1-TS4, unseen US1, hospital H1-H3)",

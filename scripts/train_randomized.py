@@ -17,15 +17,15 @@ from __future__ import annotations
 import argparse
 import sys
 
-from d3dwa_bullet import REPO_ROOT
-from d3dwa_bullet.cli import add_train_arguments, cmd_train
+from d3dwa_bullet.cli.app import add_train_arguments, cmd_train
 from d3dwa_bullet.errors import D3DWAError
+from d3dwa_bullet.resources import configs_dir
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_train_arguments(ap)
-    ap.set_defaults(config=str(REPO_ROOT / "configs" / "d3dwa-dr.yaml"), out="runs/d3dwa-dr")
+    ap.set_defaults(config=str(configs_dir() / "d3dwa-dr.yaml"), out="runs/d3dwa-dr")
     args = ap.parse_args(argv)
     try:
         return cmd_train(args)

@@ -8,7 +8,7 @@ import yaml
 
 matplotlib.use("Agg")
 
-from d3dwa_bullet.world import Box, Cylinder, World  # noqa: E402
+from d3dwa_bullet.world.model import Box, Cylinder, World  # noqa: E402
 
 
 @pytest.fixture

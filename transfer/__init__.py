@@ -6,11 +6,11 @@ planner), ``bag_writer`` records simulated episodes as ROS 2 bags with the Kacha
 names, and ``compare`` sets two bags' scans side by side, sector by sector.
 """
 
-from .bag_reader import BagData, read_bag
-from .bag_writer import BagRecorder, quantize_scan
-from .compare import compare_scans, format_scan_comparison
-from .replay import ReplayResult, ScanStep, SkipScan, StepOutput, observe_only, replay_bag
-from .topics import TopicMap, TopicResolution, resolve_topics
+from transfer.bag_reader import BagData, read_bag
+from transfer.bag_writer import BagRecorder, quantize_scan
+from transfer.compare import compare_scans, format_scan_comparison
+from transfer.replay import ReplayResult, ScanStep, SkipScan, StepOutput, observe_only, replay_bag
+from transfer.topics import TopicMap, TopicResolution, resolve_topics
 
 __all__ = [
     "BagData",

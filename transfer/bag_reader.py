@@ -39,10 +39,9 @@ from typing import Any, Literal
 import numpy as np
 
 from d3dwa_bullet.errors import BagFormatError, ScanError
-from d3dwa_bullet.scan import LaserScan, Pose2D
-
-from .topics import LASER_SCAN, TopicMap, TopicResolution, resolve_topics
-from .transforms import (
+from d3dwa_bullet.sim.scan import LaserScan, Pose2D
+from transfer.topics import LASER_SCAN, TopicMap, TopicResolution, resolve_topics
+from transfer.transforms import (
     TransformTree,
     matrix_from_transform,
     pose2d_from_matrix,

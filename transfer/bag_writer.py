@@ -25,9 +25,8 @@ from typing import Any, Literal
 import numpy as np
 
 from d3dwa_bullet.errors import BagFormatError
-from d3dwa_bullet.scan import LaserScan
-
-from .topics import (
+from d3dwa_bullet.sim.scan import LaserScan
+from transfer.topics import (
     FLOAT64_ARRAY,
     IMU,
     LASER_SCAN,
@@ -37,7 +36,7 @@ from .topics import (
     TWIST,
     TopicMap,
 )
-from .transforms import quaternion_from_yaw
+from transfer.transforms import quaternion_from_yaw
 
 Storage = Literal["sqlite3", "mcap", "ros1"]
 

@@ -33,11 +33,10 @@ from typing import Any
 import numpy as np
 
 from d3dwa_bullet.errors import BagFormatError
-from d3dwa_bullet.observation import OBSERVATION_LAYOUT, build_observation
-from d3dwa_bullet.scan import LaserScan, Pose2D, scan_points_body
-
-from .bag_reader import BagData, Clock, first_goal, read_bag
-from .topics import TopicMap
+from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT, build_observation
+from d3dwa_bullet.sim.scan import LaserScan, Pose2D, scan_points_body
+from transfer.bag_reader import BagData, Clock, first_goal, read_bag
+from transfer.topics import TopicMap
 
 SKIP_BEFORE_ODOMETRY = "before first odometry sample"
 SKIP_AFTER_ODOMETRY = "after last odometry sample"

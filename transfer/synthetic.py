@@ -12,10 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from d3dwa_bullet.scan import LaserScan
-
-from .bag_writer import LIDAR_MOUNT_XYZ, BagRecorder, Storage, quantize_scan
-from .topics import TopicMap
+from d3dwa_bullet.sim.scan import LaserScan
+from transfer.bag_writer import LIDAR_MOUNT_XYZ, BagRecorder, Storage, quantize_scan
+from transfer.topics import TopicMap
 
 #: Dropout kind -> the value a driver writes for it.
 DROPOUT_VALUES = {"nan": np.nan, "pos_inf": np.inf, "neg_inf": -np.inf, "zero": 0.0}

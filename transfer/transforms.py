@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from d3dwa_bullet.scan import Pose2D
+from d3dwa_bullet.sim.scan import Pose2D
 
 _MAX_NUDGE_ULP = 3
 

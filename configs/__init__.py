@@ -1,0 +1,1 @@
+"""Package data: the shipped configs (found through d3dwa_bullet.resources)."""

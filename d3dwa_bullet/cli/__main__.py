@@ -1,0 +1,5 @@
+import sys
+
+from d3dwa_bullet.cli.app import main
+
+sys.exit(main())

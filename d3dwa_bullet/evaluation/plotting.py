@@ -1,0 +1,230 @@
+"""Figures: trajectories over the map, coloured by elapsed time or by the selected horizon."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.collections import LineCollection  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+from matplotlib.patches import Circle, Patch, Polygon  # noqa: E402
+
+from d3dwa_bullet.world.model import Cylinder, World  # noqa: E402
+
+OUTCOME_MARK = {"goal": "reached", "collision": "C: collision", "timeout": "T: timeout"}
+
+
+def draw_world(ax: plt.Axes, world: World) -> None:
+    """Obstacles (grey), start (black triangle) and goal (red star and tolerance) on ax."""
+    from d3dwa_bullet.sim.simulator import obstacle_outline
+
+    for ob in world.obstacles:
+        if isinstance(ob, Cylinder):
+            ax.add_patch(Circle(ob.center, ob.radius, color="0.55", zorder=1))
+        else:
+            ax.add_patch(Polygon(obstacle_outline(ob), closed=True, color="0.55", zorder=1))
+    x, y, yaw = world.start
+    ax.plot(x, y, marker=(3, 0, np.degrees(yaw) - 90), color="k", markersize=9, zorder=4)
+    ax.plot(*world.goal, marker="*", color="red", markersize=14, zorder=4, label="goal")
+    xmin, ymin, xmax, ymax = world.bounds(margin=0.3)
+    ax.set_xlim(xmin, xmax)
+    ax.set_ylim(ymin, ymax)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.grid(True, alpha=0.25)
+
+
+def draw_path(
+    ax: plt.Axes, x: np.ndarray, y: np.ndarray, colour: np.ndarray, norm, cmap: str
+) -> LineCollection:
+    """A path whose segments are coloured by colour (N,) under norm."""
+    pts = np.column_stack((x, y)).reshape(-1, 1, 2)
+    segs = np.concatenate([pts[:-1], pts[1:]], axis=1)
+    lc = LineCollection(segs, cmap=cmap, norm=norm, linewidths=2.2, zorder=3)
+    lc.set_array(colour[: len(segs)] if len(colour) >= len(segs) else np.resize(colour, len(segs)))
+    ax.add_collection(lc)
+    return lc
+
+
+def view_bounds(world: World, runs: Sequence[dict], margin: float = 0.3) -> tuple[float, ...]:
+    """(xmin, ymin, xmax, ymax) of the world and every run's path, plus margin, m."""
+    xmin, ymin, xmax, ymax = world.bounds(margin=margin)
+    for r in runs:
+        if len(r["x"]):
+            xmin, xmax = min(xmin, np.min(r["x"]) - margin), max(xmax, np.max(r["x"]) + margin)
+            ymin, ymax = min(ymin, np.min(r["y"]) - margin), max(ymax, np.max(r["y"]) + margin)
+    return float(xmin), float(ymin), float(xmax), float(ymax)
+
+
+def trajectory_figure(
+    world: World,
+    runs: Sequence[dict],
+    path: str | os.PathLike[str],
+    colour_by: str = "time",
+    title: str | None = None,
+) -> Path:
+    """One panel per run, side by side: each run is a dict with keys
+    label, outcome, t, x, y, tau (arrays, s and m). colour_by: "time" or "tau".
+    """
+    n = max(1, len(runs))
+    xmin, ymin, xmax, ymax = view_bounds(world, runs)
+    aspect = (ymax - ymin) / max(xmax - xmin, 1e-6)
+    width = min(4.2, 12.0 / n) if n > 3 else 4.2
+    fig, axes = plt.subplots(
+        1, n, figsize=(width * n + 1.2, width * aspect + 1.4), squeeze=False, layout="constrained"
+    )
+    if colour_by == "tau":
+        taus = np.concatenate([r["tau"] for r in runs if len(r["tau"])] or [np.array([2.0, 5.0])])
+        norm = matplotlib.colors.Normalize(vmin=min(2.0, taus.min()), vmax=max(5.0, taus.max()))
+        cmap, label = "viridis", "selected horizon tau [s]"
+    else:
+        tmax = max([float(r["t"][-1]) for r in runs if len(r["t"])] or [1.0])
+        norm = matplotlib.colors.Normalize(vmin=0.0, vmax=max(tmax, 1e-3))
+        cmap, label = "plasma", "elapsed time [s]"
+    lc = None
+    for ax, run in zip(axes[0], runs, strict=False):
+        draw_world(ax, world)
+        if len(run["x"]) > 1:
+            lc = draw_path(
+                ax, run["x"], run["y"], run["tau"] if colour_by == "tau" else run["t"], norm, cmap
+            )
+        ax.set_xlim(xmin, xmax)
+        ax.set_ylim(ymin, ymax)
+        ax.set_title(
+            f"{run['label']}\n{OUTCOME_MARK.get(run['outcome'], run['outcome'])}", fontsize=9
+        )
+    for ax in axes[0][1:]:  # one y label: the neighbours' would overlap the panel beside them
+        ax.set_ylabel("")
+    axes[0][0].legend(
+        handles=[
+            Line2D([], [], marker=(3, 0, -90), color="k", ls="", label="start"),
+            Line2D([], [], marker="*", color="red", ms=10, ls="", label="goal"),
+            Patch(color="0.55", label="obstacle"),
+        ],
+        loc="best", fontsize=7, framealpha=0.8,
+    )  # fmt: skip
+    if lc is not None:
+        fig.colorbar(lc, ax=axes[0].tolist(), label=label, shrink=0.85)
+    fig.suptitle(title or f"{world.name}: {world.description}", fontsize=10)
+    return _save(fig, path)
+
+
+def method_colours(methods: Sequence[str]) -> dict[str, tuple]:
+    """A stable colour per method name (the order of d3dwa_bullet.methods.METHODS)."""
+    from d3dwa_bullet.methods import METHODS
+
+    cmap = plt.get_cmap("tab10")
+    return {
+        m: cmap(METHODS.index(m) % 10 if m in METHODS else i % 10) for i, m in enumerate(methods)
+    }
+
+
+def _save(fig: plt.Figure, path: str | os.PathLike[str]) -> Path:
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(out.stem + ".tmp.png")
+    fig.savefig(tmp, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    os.replace(tmp, out)
+    return out
+
+
+def sweep_figure(
+    series: dict,
+    column_titles: dict[str, str],
+    xlabel: str,
+    path: str | os.PathLike[str],
+    title: str = "",
+    bars: bool = False,
+) -> Path:
+    """Success rate (top) and time to goal (bottom) against a noise level or profile.
+
+    series: layout group -> method -> [(x, stats)], stats with n, successes, rate,
+    rate_lo, rate_hi (Wilson interval) and time_mean, time_lo, time_hi (t-interval, s).
+    One column per layout group; lines over numeric levels, grouped bars over profiles.
+    Methods are dodged sideways so their error bars do not hide each other.
+    """
+    from d3dwa_bullet.methods import LABELS
+
+    layouts = list(series)
+    methods = list(dict.fromkeys(m for per in series.values() for m in per))
+    colours = method_colours(methods)
+    fig, axes = plt.subplots(
+        2, len(layouts), figsize=(5.6 * len(layouts) + 0.6, 7.2), squeeze=False, sharex="col"
+    )
+    any_time = [False] * len(layouts)
+    for col, layout in enumerate(layouts):
+        per_method = series[layout]
+        xs_all = list(dict.fromkeys(x for pts in per_method.values() for x, _ in pts))
+        if bars:
+            pos = {x: float(i) for i, x in enumerate(xs_all)}
+            width = 0.8 / max(1, len(methods))
+        else:
+            span = (max(xs_all) - min(xs_all)) or 1.0
+            pos = {x: float(x) for x in xs_all}
+            width = 0.012 * span
+        for i, m in enumerate(methods):
+            pts = per_method.get(m, [])
+            if not pts:
+                continue
+            shift = (i - (len(methods) - 1) / 2) * width
+            x = np.array([pos[p] for p, _ in pts]) + shift
+            st = [s for _, s in pts]
+            rate = np.array([100 * s.rate for s in st])
+            err = np.array(
+                [[100 * (s.rate - s.rate_lo) for s in st], [100 * (s.rate_hi - s.rate) for s in st]]
+            )
+            tm = np.array([s.time_mean for s in st])
+            terr = np.array(
+                # a time is never negative: the t-interval of 2-3 episodes is cut at 0 s
+                [
+                    [s.time_mean - max(s.time_lo, 0.0) for s in st],
+                    [s.time_hi - s.time_mean for s in st],
+                ]
+            )
+            terr = np.nan_to_num(terr, nan=0.0)
+            kw = {"color": colours[m], "label": LABELS.get(m, m)}
+            top, bottom = axes[0, col], axes[1, col]
+            ok = np.isfinite(tm)
+            if bars:
+                top.bar(x, rate, width, yerr=err, capsize=2, ecolor="0.25", **kw)
+                for xi, s in zip(x, st, strict=True):  # counts: a 0 % bar is otherwise invisible
+                    top.annotate(f"{s.successes}/{s.n}", (xi, 100 * s.rate_hi), ha="center",
+                                 va="bottom", fontsize=6, xytext=(0, 1), textcoords="offset points")  # fmt: skip
+                if ok.any():
+                    bottom.bar(
+                        x[ok], tm[ok], width, yerr=terr[:, ok], capsize=2, ecolor="0.25", **kw
+                    )
+            else:
+                top.errorbar(x, rate, yerr=err, marker="o", ms=4, capsize=3, lw=1.5, **kw)
+                if ok.any():
+                    bottom.errorbar(x[ok], tm[ok], yerr=terr[:, ok], marker="o", ms=4, capsize=3,
+                                    lw=1.5, **kw)  # fmt: skip
+            any_time[col] = any_time[col] or bool(ok.any())
+        top, bottom = axes[0, col], axes[1, col]
+        top.set_title(column_titles.get(layout, layout), fontsize=9)
+        top.set_ylim(-3, 108 if bars else 103)
+        if not any_time[col]:
+            bottom.text(0.5, 0.5, "no successful episode", transform=bottom.transAxes,
+                        ha="center", va="center", color="0.4")  # fmt: skip
+        top.set_ylabel("success rate [%] (Wilson 95 % CI)")
+        bottom.set_ylabel("time to goal [s] (successes, 95 % t-CI)")
+        bottom.set_ylim(bottom=0.0)
+        bottom.set_xlabel(xlabel)
+        if bars:
+            bottom.set_xticks(list(pos.values()), [str(x) for x in pos])
+        for ax in (top, bottom):
+            ax.grid(True, alpha=0.3)
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(4, len(labels)), fontsize=9,
+               bbox_to_anchor=(0.5, -0.01))  # fmt: skip
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    return _save(fig, path)

@@ -1,0 +1,288 @@
+"""One Markdown page per results directory: ``d3dwa report DIR`` -> ``DIR/report.md``.
+
+The page is computed from ``results.csv`` and ``meta.json`` alone (never from typed
+numbers): for ``d3dwa eval`` the paper-layout table, success rates and the trajectory
+figures of every world; for ``d3dwa sweep`` one plot and one table per noise axis and for
+the named profiles; for both, the learning curves ``policies/<method>/learning_curve.png``
+that exist (copied into ``DIR/figures/`` so the page and its images move together). Images
+are linked relative to the page.
+
+Completeness is judged against the job list the last run saved in meta.json. An
+incomplete directory still gets a page, but it says so at the top and in every table and
+figure title; the page is written atomically.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from d3dwa_bullet import __version__
+from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation.jobs import (
+    check_results_dir,
+    completion,
+    read_meta,
+    read_results,
+    world_figures,
+    write_text_atomic,
+)
+from d3dwa_bullet.evaluation.tables import paper_table, success_table
+from d3dwa_bullet.methods import LABELS
+from d3dwa_bullet.resources import policies_dir as shipped_policies_dir
+
+LEARNING_CURVE = "learning_curve.png"
+
+
+@dataclass(frozen=True)
+class Report:
+    """Where the page went and how complete its data is."""
+
+    path: Path
+    kind: str
+    done: int
+    expected: int
+
+    @property
+    def complete(self) -> bool:
+        return self.done == self.expected
+
+
+def eval_markdown(
+    rows: Sequence[dict[str, Any]],
+    methods: Sequence[str],
+    worlds: Sequence[str],
+    seeds: Sequence[int],
+    noise: str,
+    title: str | None = None,
+) -> str:
+    """The evaluation page of ``d3dwa eval`` (table.md): paper layout plus success rates."""
+    span = f"{seeds[0]}..{seeds[-1]}" if seeds else "none"
+    return (
+        f"# {title or 'Evaluation: ' + ', '.join(worlds)}\n\n"
+        f"Noise profile: `{noise}`; seeds: {span}.\n\n"
+        "Time [s], TL [m], PD [rad] averaged over successful seeds; T = timeout, C = collision; "
+        "best per world and metric in bold.\n\n"
+        + paper_table(rows, methods, worlds)
+        + "\n## Success rate and time (mean ± std over seeds)\n\n"
+        + success_table(rows, methods, worlds)
+    )
+
+
+def open_results(out: str | os.PathLike[str]) -> tuple[Path, dict[str, Any], list[dict]]:
+    """(directory, meta, rows of the last run's jobs) of a results directory, checked."""
+    out = Path(out)
+    if not out.is_dir():
+        raise ResultsError(f"{out}: no such results directory")
+    if not (out / "meta.json").exists() and not (out / "results.csv").exists():
+        raise ResultsError(f"{out}: not a results directory (no meta.json or results.csv)")
+    check_results_dir(out)
+    meta = read_meta(out)
+    if "jobs" not in meta or "settings" not in meta:
+        raise ResultsError(f"{out / 'meta.json'}: missing 'jobs' or 'settings'")
+    keys = {tuple(k) for k in meta["jobs"]}
+    rows = [
+        r for r in read_results(out) if (r["world"], r["method"], r["seed"], r["noise"]) in keys
+    ]
+    return out, meta, rows
+
+
+def _ordered(values: Sequence[Any]) -> list[Any]:
+    return list(dict.fromkeys(values))
+
+
+def eval_settings(meta: dict[str, Any]) -> tuple[list[str], list[str], list[int], str]:
+    """(methods, worlds, seeds, noise) of an eval run, from its settings or its job list."""
+    s, jobs = meta["settings"], meta["jobs"]
+    methods = s.get("methods") or _ordered(j[1] for j in jobs)
+    worlds = s.get("worlds") or _ordered(j[0] for j in jobs)
+    seeds = s.get("seeds") or sorted({j[2] for j in jobs})
+    noise = s.get("noise") or ",".join(_ordered(j[3] for j in jobs))
+    return methods, worlds, seeds, noise
+
+
+def write_table_page(
+    results_dir: str | os.PathLike[str], dest: str | os.PathLike[str], title: str
+) -> Path:
+    """A complete eval directory's tables as a page at dest (atomic). ResultsError if the
+    directory is incomplete: a partial table is never written as a finished one."""
+    out, meta, rows = open_results(results_dir)
+    done, expected = completion(out, rows)
+    if done != expected:
+        raise ResultsError(
+            f"{out}: only {done} of {expected} episodes finished; rerun the same command to resume"
+        )
+    methods, worlds, seeds, noise = eval_settings(meta)
+    dest = Path(dest)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    page = eval_markdown(rows, methods, worlds, seeds, noise, title)
+    page += f"\nFrom `{out / 'results.csv'}` ({len(rows)} episodes), d3dwa-bullet {__version__}.\n"
+    write_text_atomic(dest, page)
+    return dest
+
+
+def learning_curves(out: Path, policies_dir: Path | None = None) -> list[tuple[str, str]]:
+    """Copy every policies/<name>/learning_curve.png into out/figures; (name, link) pairs."""
+    policies_dir = shipped_policies_dir() if policies_dir is None else policies_dir
+    found = sorted(policies_dir.glob(f"*/{LEARNING_CURVE}")) if policies_dir.is_dir() else []
+    links = []
+    for src in found:
+        name = src.parent.name
+        dest = out / "figures" / f"learning_curve_{name}.png"
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        tmp = dest.with_name(dest.name + ".tmp")
+        shutil.copyfile(src, tmp)
+        os.replace(tmp, dest)
+        links.append((name, dest.relative_to(out).as_posix()))
+    return links
+
+
+def _image(alt: str, out: Path, path: Path) -> str:
+    return f"![{alt}]({path.relative_to(out).as_posix()})\n"
+
+
+def _status(done: int, expected: int, command: str) -> str:
+    if done == expected:
+        return f"**Complete**: all {expected} episodes finished.\n"
+    resume = f" Rerun `{command}` to resume." if command else " Rerun the same command to resume."
+    return (
+        f"> **INCOMPLETE: {done} of {expected} episodes finished.** Tables and figures below "
+        f"cover the finished episodes only and are partial.{resume}\n"
+    )
+
+
+def _eval_body(out: Path, meta: dict[str, Any], rows: list[dict], partial: bool) -> str:
+    from d3dwa_bullet.world.model import load_world
+
+    methods, worlds, seeds, noise = eval_settings(meta)
+    note = " (PARTIAL)" if partial else ""
+    body = eval_markdown(rows, methods, worlds, seeds, noise, title=f"Tables{note}")
+    body = "#" + body  # one level down inside the page
+    body = body.replace("\n## Success rate", f"\n### Success rate{note}")
+    sources = meta["settings"].get("world_sources", worlds)
+    loaded = []
+    for name, src in zip(worlds, sources, strict=False):
+        if not (out / "figures" / f"{name}_time.png").exists():
+            try:
+                loaded.append(load_world(src))
+            except Exception:  # a world file that moved: its figure is just left out
+                continue
+    if loaded and seeds:
+        world_figures(out, loaded, methods, seeds[0], noise)
+    figs = []
+    for name in worlds:
+        paths = [out / "figures" / f"{name}_{k}.png" for k in ("time", "tau")]
+        paths = [p for p in paths if p.exists()]
+        if paths:
+            figs.append(f"\n### {name}\n\n")
+            figs.append(_image(f"{name}: trajectories coloured by elapsed time", out, paths[0]))
+            for p in paths[1:]:
+                figs.append("\n" + _image(f"{name}: D3DWA trajectories coloured by tau", out, p))
+    if figs:
+        seed_note = f"seed {seeds[0]}" if seeds else ""
+        body += (
+            f"\n## Trajectories{note}\n\nEvery method side by side over the map ({seed_note}), "
+            "coloured by elapsed time; learned D3DWA methods also coloured by the selected "
+            "horizon tau.\n" + "".join(figs)
+        )
+    return body
+
+
+def _sweep_body(out: Path, meta: dict[str, Any], partial: bool) -> str:
+    from d3dwa_bullet.evaluation.sweep import (
+        AXES,
+        SweepSettings,
+        read_sweep,
+        sweep_figures,
+        sweep_markdown,
+    )
+
+    settings = SweepSettings.from_dict(meta["settings"])
+    keys = {tuple(k) for k in meta["jobs"]}
+    rows = [r for r in read_sweep(out) if (r["world"], r["method"], r["seed"], r["noise"]) in keys]
+    # Figures newer than results.csv were drawn from these very rows: keep them.
+    names = [f"sweep_{a}.png" for a in settings.axes] + ["sweep_profiles.png"] * bool(
+        settings.profiles
+    )
+    existing = [out / "figures" / n for n in names]
+    csv_time = (out / "results.csv").stat().st_mtime if (out / "results.csv").exists() else 0.0
+    if not partial and all(p.exists() and p.stat().st_mtime >= csv_time for p in existing):
+        figures = existing
+    else:
+        figures = sweep_figures(rows, settings, out / "figures", partial=partial)
+    note = " (PARTIAL)" if partial else ""
+    lines = [
+        "## Settings\n\n",
+        f"Methods: {', '.join(LABELS.get(m, m) for m in settings.methods)}. "
+        f"Shipped worlds: {', '.join(settings.worlds)}; unseen generated layouts: "
+        f"{settings.layouts} per style ({', '.join(settings.styles)}). Seeds per condition: "
+        f"{settings.seeds} (from {settings.first_seed}). Levels per axis: {settings.levels} "
+        "plus the shared noise-free baseline.\n\n",
+        "| axis | what a level L sets | levels |\n|---|---|---|\n",
+    ]
+    lines += [
+        f"| `{a}` | {AXES[a].sets} | 0, "
+        + ", ".join(f"{v:g}" for v in AXES[a].levels(settings.levels))
+        + " |\n"
+        for a in settings.axes
+    ]
+    lines.append(f"\nProfiles: {', '.join(f'`{p}`' for p in settings.profiles)}.\n")
+    lines.append(f"\n## Results{note}\n\n")
+    by_name = {p.stem: p for p in figures}
+    tables = sweep_markdown(rows, settings)
+    # Put each axis's figure above its table.
+    for name in [*settings.axes, "profiles"]:
+        fig = by_name.get(f"sweep_{name}")
+        heading = "### Named profiles" if name == "profiles" else f"(`{name}`)"
+        if fig is None:
+            continue
+        idx = tables.find(heading)
+        if idx < 0:
+            continue
+        end = tables.find("\n", idx) + 1
+        tables = tables[:end] + "\n" + _image(f"sweep {name}", out, fig) + tables[end:]
+    lines.append(tables)
+    return "".join(lines)
+
+
+def write_report(
+    out: str | os.PathLike[str], policies_dir: str | os.PathLike[str] | None = None
+) -> Report:
+    """Write out/report.md for an eval or sweep results directory; returns what it wrote."""
+    out, meta, rows = open_results(out)
+    settings = meta["settings"]
+    kind = settings.get("kind", "eval")
+    done, expected = completion(out, rows)
+    partial = done != expected
+    command = settings.get("command", "")
+    title = "Noise sweep" if kind == "sweep" else "Evaluation"
+    page = [
+        f"# {title}: `{out.name}`\n\n",
+        _status(done, expected, command),
+        f"\nd3dwa-bullet {meta.get('version', '?')}; rows from `results.csv`; "
+        f"per-step logs in `logs/`.",
+        f" Command: `{command}`.\n\n" if command else "\n\n",
+    ]
+    if kind == "sweep":
+        page.append(_sweep_body(out, meta, partial))
+    elif kind == "eval":
+        page.append(_eval_body(out, meta, rows, partial))
+    else:
+        raise ResultsError(f"{out / 'meta.json'}: unknown results kind {kind!r}")
+    policies = shipped_policies_dir() if policies_dir is None else Path(policies_dir)
+    curves = learning_curves(out, policies)
+    if curves:
+        page.append("\n## Learning curves\n\n")
+        where = policies.name
+        for name, link in curves:
+            page.append(
+                f"### {LABELS.get(name, name)} (`{where}/{name}/{LEARNING_CURVE}`)\n\n"
+                f"![{name} learning curve]({link})\n\n"
+            )
+    path = out / "report.md"
+    write_text_atomic(path, "".join(page))
+    return Report(path, kind, done, expected)

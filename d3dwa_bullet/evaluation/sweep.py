@@ -1,0 +1,497 @@
+"""Noise sweep: how each method degrades as one noise source grows, and under whole profiles.
+
+Worlds: the shipped real-style worlds R1-R3 and, per generator style (R1-style, R2-style,
+R3-style), ``layouts`` freshly generated layouts with seeds ``UNSEEN_LAYOUT_SEED_BASE + i``.
+Training draws generator seeds with ``integers(2**31)``, i.e. from [0, 2^31)
+(``d3dwa_bullet/env.py``), so layouts from 2^31 upward are never seen in training; keep
+training below that bound.
+
+Noise: one axis at a time, from 0 to a harsh value in ``levels`` equal steps, every other
+model off; then the named profiles (none, paper, real, harsh), sampled per episode as in
+training. An axis level is an explicit :class:`NoiseConfig` (the episode runs with
+``NoiseModel(config, seed)``):
+
+================  =======================================================  ==========
+axis              what a level L sets                                       top (harsh)
+================  =======================================================  ==========
+lidar_dropout     lidar.dropout_prob = L; dropped beams NaN/+inf/0 as 1:7:2    0.5
+lidar_range       lidar.range_std = L m                                        0.10 m
+slip              slip.level_mean = L, level_std = L/4, step_std = L/10        0.4
+odometry          odometry radius/track error std = L, walk = L m/sqrt(s),     0.04
+                  yaw walk = L rad/sqrt(s)
+================  =======================================================  ==========
+
+Level 0 of every axis and the profile ``none`` are the same noise-free episode (a
+NoiseModel with every model off is bit-identical to no noise), so it runs once: its rows
+have axis ``none``, level 0 and noise ``none``, and serve as level 0 of each axis and as
+the ``none`` profile. Other rows have noise ``<axis>=<level>`` (e.g. ``slip=0.2``) or the
+profile name, axis the axis name or ``profile``, and level the axis value (empty for
+profiles).
+
+Statistics: success rate with the Wilson score interval (95 %), time to goal over the
+successful episodes with the 95 % Student t-interval of the mean.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from d3dwa_bullet.episode import EpisodeConfig
+from d3dwa_bullet.errors import ConfigError, UnknownNameError
+from d3dwa_bullet.evaluation.jobs import (
+    CSV_FIELDS,
+    Job,
+    completion,
+    evaluate,
+    noise_config_json,
+    read_results,
+    write_text_atomic,
+)
+from d3dwa_bullet.methods import LABELS, check_method
+from d3dwa_bullet.sim.noise import LidarNoiseConfig, NoiseConfig, OdometryConfig, SlipConfig
+from d3dwa_bullet.world.model import World, load_world
+
+UNSEEN_LAYOUT_SEED_BASE = 2**31
+"""First generator seed of the sweep's unseen layouts (training draws from [0, 2^31))."""
+SHIPPED_WORLDS = ("R1", "R2", "R3")
+STYLES = ("R1-style", "R2-style", "R3-style")
+PROFILES = ("none", "paper", "real", "harsh")
+BASELINE = "none"
+"""Noise label, axis and profile of the shared noise-free episodes."""
+SWEEP_FIELDS = (*CSV_FIELDS[:4], "axis", "level", "layout", *CSV_FIELDS[4:])
+LAYOUT_GROUPS = ("shipped", "generated")
+DROPOUT_KINDS = (0.1, 0.7, 0.2)
+"""(NaN, +inf, 0.0) proportions of dropped beams, as in the ``real`` profile."""
+CONFIDENCE = 0.95
+Z95 = 1.959963984540054
+"""Standard normal quantile of 0.975."""
+
+
+@dataclass(frozen=True)
+class NoiseAxis:
+    """One noise source swept from 0 to ``harsh``."""
+
+    name: str
+    label: str
+    """Axis label for plots, with unit."""
+    sets: str
+    """What a level L sets (for reports)."""
+    harsh: float
+    """The top of the axis (several times the ``harsh`` profile)."""
+    build: Callable[[float], NoiseConfig] = field(repr=False, compare=False)
+    """Level -> the episode's NoiseConfig (every other model off)."""
+
+    def levels(self, n: int) -> list[float]:
+        """The n non-zero levels, equally spaced up to harsh."""
+        return [round(self.harsh * i / n, 6) for i in range(1, n + 1)]
+
+
+AXES: dict[str, NoiseAxis] = {
+    a.name: a
+    for a in (
+        NoiseAxis(
+            "lidar_dropout",
+            "lidar beam dropout probability",
+            "lidar.dropout_prob = L; dropped beams read NaN / +inf / 0 in proportions 1:7:2",
+            0.5,
+            lambda v: NoiseConfig(
+                lidar=LidarNoiseConfig(dropout_prob=v, dropout_kinds=DROPOUT_KINDS)
+            ),
+        ),
+        NoiseAxis(
+            "lidar_range",
+            "lidar range noise std [m]",
+            "lidar.range_std = L m (Gaussian, on valid returns)",
+            0.10,
+            lambda v: NoiseConfig(lidar=LidarNoiseConfig(range_std=v)),
+        ),
+        NoiseAxis(
+            "slip",
+            "wheel slip ratio (per-episode mean)",
+            "slip.level_mean = L, level_std = L/4 (wheels differ), step_std = L/10",
+            0.4,
+            lambda v: NoiseConfig(slip=SlipConfig(level_mean=v, level_std=v / 4, step_std=v / 10)),
+        ),
+        NoiseAxis(
+            "odometry",
+            "odometry drift level L",
+            "odometry.walk_std = L m/√s, yaw_walk_std = L rad/√s, "
+            "radius_error_std = track_error_std = L",
+            0.04,
+            lambda v: NoiseConfig(
+                odometry=OdometryConfig(
+                    radius_error_std=v, track_error_std=v, walk_std=v, yaw_walk_std=v
+                )
+            ),
+        ),
+    )
+}
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One noise condition of the sweep."""
+
+    axis: str
+    """An AXES name, "profile", or "none" (the shared noise-free baseline)."""
+    level: float | None
+    """The axis value (0 for the baseline, None for a profile)."""
+    noise: str
+    """The jobs' noise label: "none", "<axis>=<level>" or a profile name."""
+    noise_config: str | None = None
+    """JSON NoiseConfig for axis levels; None for profiles and the baseline."""
+
+
+@dataclass(frozen=True)
+class SweepSettings:
+    """What a sweep runs; saved in meta.json so a results directory documents itself."""
+
+    methods: tuple[str, ...]
+    """Method names (see d3dwa_bullet.methods)."""
+    worlds: tuple[str, ...] = SHIPPED_WORLDS
+    """Shipped worlds (names or files)."""
+    styles: tuple[str, ...] = STYLES
+    """Generator styles of the unseen layouts."""
+    layouts: int = 2
+    """Unseen generated layouts per style."""
+    seeds: int = 2
+    """Episode seeds per (world, method, condition)."""
+    first_seed: int = 0
+    """The first episode seed."""
+    levels: int = 4
+    """Non-zero levels per axis, equally spaced from harsh/levels to harsh."""
+    axes: tuple[str, ...] = tuple(AXES)
+    """Noise axes to sweep."""
+    profiles: tuple[str, ...] = PROFILES
+    """Named randomisation profiles to run as a whole."""
+    time_limit: float | None = None
+    """Episode time limit override, s (default: the world's, else 60 s)."""
+
+    def __post_init__(self) -> None:
+        for name in ("layouts", "seeds", "levels"):
+            low = 0 if name == "layouts" else 1
+            if getattr(self, name) < low:
+                raise ConfigError(f"--{name} must be >= {low}, got {getattr(self, name)}")
+        if not self.methods:
+            raise ConfigError("a sweep needs at least one method")
+        for m in self.methods:
+            check_method(m)
+        for a in self.axes:
+            if a not in AXES:
+                raise UnknownNameError(f"unknown noise axis {a!r}: choose from {', '.join(AXES)}")
+        from randomization import load_profile
+
+        for p in self.profiles:
+            load_profile(p)  # ProfileError for an unknown name or a bad file
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> SweepSettings:
+        keys = {f for f in cls.__dataclass_fields__}
+        values = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items() if k in keys}
+        return cls(**values)
+
+
+def conditions(settings: SweepSettings) -> list[Condition]:
+    """The baseline, every axis level, then every profile but none (= the baseline)."""
+    out = [Condition(BASELINE, 0.0, BASELINE)]
+    for name in settings.axes:
+        axis = AXES[name]
+        for level in axis.levels(settings.levels):
+            out.append(
+                Condition(name, level, f"{name}={level:g}", noise_config_json(axis.build(level)))
+            )
+    out += [Condition("profile", None, p) for p in settings.profiles if p != BASELINE]
+    return out
+
+
+def unseen_layout_seeds(layouts: int) -> list[int]:
+    """Generator seeds of the unseen layouts: 2^31, 2^31 + 1, ..."""
+    return [UNSEEN_LAYOUT_SEED_BASE + i for i in range(layouts)]
+
+
+def sweep_worlds(settings: SweepSettings) -> list[tuple[World, str]]:
+    """(world, "shipped" | "generated") pairs, with the time-limit override applied."""
+    from d3dwa_bullet.world.generator import generate_world
+
+    pairs = [(load_world(w), "shipped") for w in settings.worlds]
+    pairs += [
+        (generate_world(style, seed), "generated")
+        for style in settings.styles
+        for seed in unseen_layout_seeds(settings.layouts)
+    ]
+    if settings.time_limit is not None:
+        pairs = [(w.with_task(time_limit=settings.time_limit), g) for w, g in pairs]
+    return pairs
+
+
+def sweep_jobs(settings: SweepSettings, policy: str | None = None) -> list[Job]:
+    """Every episode of the sweep: worlds x methods x conditions x seeds."""
+    seeds = range(settings.first_seed, settings.first_seed + settings.seeds)
+    return [
+        Job(world, method, seed, c.noise, policy, c.noise_config,
+            (("axis", c.axis), ("level", "" if c.level is None else c.level), ("layout", group)))
+        for world, group in sweep_worlds(settings)
+        for method in settings.methods
+        for c in conditions(settings)
+        for seed in seeds
+    ]  # fmt: skip
+
+
+def read_sweep(out: str | Path) -> list[dict[str, Any]]:
+    """Rows of a sweep's results.csv, level as float (None for profiles)."""
+    rows = read_results(Path(out))
+    for r in rows:
+        r["level"] = float(r["level"]) if r.get("level", "") != "" else None
+    return rows
+
+
+# --- statistics ------------------------------------------------------------------------
+
+
+def wilson_interval(k: int, n: int, z: float = Z95) -> tuple[float, float]:
+    """Wilson score interval of a success probability from k successes in n trials."""
+    if n == 0:
+        return (math.nan, math.nan)
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    # The interval contains p in exact arithmetic; at k = 0 or k = n rounding can put a bound
+    # a few ulp on the wrong side of it (and make an error bar negative).
+    return (min(p, max(0.0, centre - half)), max(p, min(1.0, centre + half)))
+
+
+def t_interval(
+    values: Sequence[float], confidence: float = CONFIDENCE
+) -> tuple[float, float, float]:
+    """(mean, low, high): the Student t confidence interval of the mean (nan bounds if n < 2)."""
+    x = np.asarray(values, dtype=np.float64)
+    if x.size == 0:
+        return (math.nan, math.nan, math.nan)
+    mean = float(x.mean())
+    if x.size < 2:
+        return (mean, math.nan, math.nan)
+    from scipy.stats import t
+
+    half = float(t.ppf(0.5 + confidence / 2, x.size - 1) * x.std(ddof=1) / math.sqrt(x.size))
+    return (mean, mean - half, mean + half)
+
+
+@dataclass(frozen=True)
+class CellStats:
+    """Success and time statistics of one group of episodes."""
+
+    n: int
+    successes: int
+    rate: float
+    rate_lo: float
+    rate_hi: float
+    time_mean: float
+    """Mean time to goal over the successful episodes, s (nan if none)."""
+    time_lo: float
+    time_hi: float
+
+    @classmethod
+    def of(cls, rows: Sequence[Mapping[str, Any]]) -> CellStats:
+        times = [r["time_s"] for r in rows if r["outcome"] == "goal"]
+        n, k = len(rows), len(times)
+        lo, hi = wilson_interval(k, n)
+        mean, tlo, thi = t_interval(times)
+        return cls(n, k, k / n if n else math.nan, lo, hi, mean, tlo, thi)
+
+
+Series = dict[str, dict[str, list[tuple[Any, CellStats]]]]
+"""layout group -> method -> [(x, stats)] (x a level or a profile name)."""
+
+
+def axis_series(rows: Sequence[Mapping[str, Any]], axis: str, methods: Sequence[str]) -> Series:
+    """Stats per layout group, method and level of one axis; level 0 is the baseline."""
+    groups: dict[tuple[str, str, float], list[Mapping[str, Any]]] = defaultdict(list)
+    for r in rows:
+        if r["axis"] == BASELINE:
+            groups[(r["layout"], r["method"], 0.0)].append(r)
+        elif r["axis"] == axis:
+            groups[(r["layout"], r["method"], r["level"])].append(r)
+    return _series(groups, methods)
+
+
+def profile_series(
+    rows: Sequence[Mapping[str, Any]], profiles: Sequence[str], methods: Sequence[str]
+) -> Series:
+    """Stats per layout group, method and profile (none = the baseline)."""
+    groups: dict[tuple[str, str, str], list[Mapping[str, Any]]] = defaultdict(list)
+    for r in rows:
+        name = BASELINE if r["axis"] == BASELINE else r["noise"] if r["axis"] == "profile" else None
+        if name in profiles:
+            groups[(r["layout"], r["method"], name)].append(r)
+    order = {p: i for i, p in enumerate(profiles)}
+    return _series(groups, methods, key=lambda x: order[x])
+
+
+def _series(groups, methods, key=None) -> Series:
+    out: Series = {}
+    for layout in LAYOUT_GROUPS:
+        per_method = {}
+        for m in methods:
+            xs = sorted((x for (g, mm, x) in groups if g == layout and mm == m), key=key)
+            if xs:
+                per_method[m] = [(x, CellStats.of(groups[(layout, m, x)])) for x in xs]
+        if per_method:
+            out[layout] = per_method
+    return out
+
+
+# --- outputs ---------------------------------------------------------------------------
+
+
+def layout_titles(settings: SweepSettings) -> dict[str, str]:
+    """Column titles of the layout groups that the settings have."""
+    titles = {}
+    if settings.worlds:
+        names = [Path(w).stem if Path(w).suffix else w for w in settings.worlds]
+        titles["shipped"] = f"shipped worlds: {', '.join(names)}"
+    seeds = unseen_layout_seeds(settings.layouts)
+    if seeds and settings.styles:
+        span = f"{seeds[0]}" if len(seeds) == 1 else f"{seeds[0]}..{seeds[-1]}"
+        titles["generated"] = (
+            f"unseen layouts: {settings.layouts} per {', '.join(settings.styles)} "
+            f"(generator seeds {span})"
+        )
+    return titles
+
+
+def sweep_figures(
+    rows: Sequence[Mapping[str, Any]], settings: SweepSettings, fig_dir: Path, partial: bool = False
+) -> list[Path]:
+    """figures/sweep_<axis>.png per axis and figures/sweep_profiles.png."""
+    from d3dwa_bullet.evaluation.plotting import sweep_figure
+
+    note = " (PARTIAL: sweep incomplete)" if partial else ""
+    titles = layout_titles(settings)
+    paths = []
+    for name in settings.axes:
+        series = axis_series(rows, name, settings.methods)
+        if series:
+            paths.append(
+                sweep_figure(
+                    series,
+                    titles,
+                    AXES[name].label,
+                    fig_dir / f"sweep_{name}.png",
+                    title=f"Noise sweep: {AXES[name].label}{note}",
+                )  # fmt: skip
+            )
+    series = profile_series(rows, settings.profiles, settings.methods)
+    if series:
+        paths.append(
+            sweep_figure(
+                series,
+                titles,
+                "randomisation profile",
+                fig_dir / "sweep_profiles.png",
+                title=f"Named noise profiles{note}",
+                bars=True,
+            )  # fmt: skip
+        )
+    return paths
+
+
+def _cell(s: CellStats) -> str:
+    text = f"{s.successes}/{s.n}"
+    if s.successes:
+        text += f", {s.time_mean:.1f} s"
+        if math.isfinite(s.time_lo):
+            text += f" ± {(s.time_hi - s.time_lo) / 2:.1f}"
+    return text
+
+
+def _series_table(series: Series, titles: Mapping[str, str], header: Sequence[str]) -> str:
+    lines = [
+        "| Method | layouts | " + " | ".join(str(h) for h in header) + " |",
+        "|---|---|" + "---:|" * len(header),
+    ]
+    for layout, per_method in series.items():
+        for m, points in per_method.items():
+            by_x = dict(points)
+            cells = [_cell(by_x[x]) if x in by_x else "" for x in header]
+            lines.append(f"| {LABELS.get(m, m)} | {layout} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def sweep_markdown(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -> str:
+    """Per-axis and per-profile tables: successes/episodes, mean time to goal ± 95 % CI."""
+    titles = layout_titles(settings)
+    parts = [
+        "Cells: successes/episodes, mean time to goal of the successes ± half-width of the "
+        "95 % t-interval. Layouts: " + "; ".join(f"*{k}* = {v}" for k, v in titles.items()) + ".\n"
+    ]
+    for name in settings.axes:
+        axis = AXES[name]
+        levels = [0.0, *axis.levels(settings.levels)]
+        parts.append(f"\n### {axis.label} (`{name}`)\n\n")
+        parts.append(_series_table(axis_series(rows, name, settings.methods), titles, levels))
+    if settings.profiles:
+        parts.append("\n### Named profiles\n\n")
+        parts.append(
+            _series_table(
+                profile_series(rows, settings.profiles, settings.methods), titles, settings.profiles
+            )
+        )
+    return "".join(parts)
+
+
+def summary_records(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -> list[dict]:
+    """Flat stats records (axis, x, method, layout, n, successes, rate, CIs) for --json;
+    undefined values (no success, n < 2) are None."""
+    out = []
+    named = [(a, axis_series(rows, a, settings.methods)) for a in settings.axes]
+    named.append(("profile", profile_series(rows, settings.profiles, settings.methods)))
+    for axis, series in named:
+        for layout, per_method in series.items():
+            for m, points in per_method.items():
+                for x, s in points:
+                    stats = {k: None if isinstance(v, float) and math.isnan(v) else v
+                             for k, v in asdict(s).items()}  # fmt: skip
+                    out.append({"axis": axis, "x": x, "method": m, "layout": layout} | stats)
+    return out
+
+
+def run_sweep(
+    settings: SweepSettings,
+    out: str | Path,
+    workers: int = 1,
+    ray_address: str | None = None,
+    config: EpisodeConfig = EpisodeConfig(),
+    progress: bool = True,
+    policy: str | None = None,
+    command: str = "",
+    figures: bool = True,
+) -> tuple[list[dict[str, Any]], bool]:
+    """Run (or resume) a sweep into out; returns (rows, complete). When complete, writes
+    sweep.md and (with figures) figures/sweep_*.png."""
+    from d3dwa_bullet.methods import make_controller
+
+    for m in settings.methods:  # fail fast on a missing policy, before any episode runs
+        make_controller(m, policy)
+    out = Path(out)
+    jobs = sweep_jobs(settings, policy)
+    meta = {"kind": "sweep", "command": command} | settings.to_dict()
+    evaluate(jobs, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta)
+    rows = [r for r in read_sweep(out) if (r["world"], r["method"], r["seed"], r["noise"])
+            in {j.key for j in jobs}]  # fmt: skip
+    done, expected = completion(out, rows)
+    complete = done == expected
+    if complete and figures:
+        sweep_figures(rows, settings, out / "figures")
+    if complete:
+        write_text_atomic(out / "sweep.md", "# Noise sweep\n\n" + sweep_markdown(rows, settings))
+    return rows, complete

@@ -1,0 +1,100 @@
+"""Markdown tables in the paper's layout, from results rows (never from typed numbers).
+
+Table I / II layout: one row per method; per world three columns Time [s], TL [m], PD [rad],
+averaged over the seeds that reached the goal. A cell with no success shows ``T`` (some
+episode timed out) or ``C`` (all failures were collisions) with ``--`` for TL and PD, as in
+the paper. Where only some seeds succeeded the Time cell says how many, e.g. ``17.0 (2/3)``.
+The best value per world and metric among methods with a success is bold (ties all bold).
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from d3dwa_bullet.methods import LABELS
+
+METRICS = (("time_s", "Time"), ("tl_m", "TL"), ("pd_rad", "PD"))
+
+
+def _group(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str], list[dict[str, Any]]]:
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = defaultdict(list)
+    for r in rows:
+        groups[(r["method"], r["world"])].append(r)
+    return groups
+
+
+def paper_table(
+    rows: Sequence[dict[str, Any]], methods: Sequence[str], worlds: Sequence[str]
+) -> str:
+    """Table I layout as Markdown."""
+    groups = _group(rows)
+    means: dict[tuple[str, str, str], float] = {}
+    for (m, w), rs in groups.items():
+        ok = [r for r in rs if r["outcome"] == "goal"]
+        for key, _ in METRICS:
+            if ok:
+                means[(m, w, key)] = float(np.mean([r[key] for r in ok]))
+    best = {}
+    for w in worlds:
+        for key, _ in METRICS:
+            vals = [means[(m, w, key)] for m in methods if (m, w, key) in means]
+            if vals:
+                best[(w, key)] = round(min(vals), 2)
+    header = (
+        "| Method | " + " | ".join(f"{w} {label}" for w in worlds for _, label in METRICS) + " |"
+    )
+    sep = "|---|" + "---:|" * (3 * len(worlds))
+    lines = [header, sep]
+    for m in methods:
+        cells = []
+        for w in worlds:
+            rs = groups.get((m, w), [])
+            ok = [r for r in rs if r["outcome"] == "goal"]
+            if not rs:
+                cells += ["", "", ""]
+                continue
+            if not ok:
+                mark = "T" if any(r["outcome"] == "timeout" for r in rs) else "C"
+                cells += [mark, "--", "--"]
+                continue
+            for key, _ in METRICS:
+                val = round(means[(m, w, key)], 2)
+                text = f"{val:.2f}"
+                if best.get((w, key)) == val:
+                    text = f"**{text}**"
+                if key == "time_s" and len(ok) < len(rs):
+                    text += f" ({len(ok)}/{len(rs)})"
+                cells.append(text)
+        lines.append(f"| {LABELS.get(m, m)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def success_table(
+    rows: Sequence[dict[str, Any]], methods: Sequence[str], worlds: Sequence[str]
+) -> str:
+    """Success rate and time mean +- std over seeds, per method and world, plus an overall rate."""
+    groups = _group(rows)
+    lines = [
+        "| Method | " + " | ".join(worlds) + " | success |",
+        "|---|" + "---:|" * (len(worlds) + 1),
+    ]
+    for m in methods:
+        cells, n_ok, n_all = [], 0, 0
+        for w in worlds:
+            rs = groups.get((m, w), [])
+            ok = [r["time_s"] for r in rs if r["outcome"] == "goal"]
+            n_ok, n_all = n_ok + len(ok), n_all + len(rs)
+            if not rs:
+                cells.append("")
+            elif ok:
+                cells.append(f"{len(ok)}/{len(rs)}, {np.mean(ok):.1f} ± {np.std(ok):.1f} s")
+            else:
+                n_c = sum(r["outcome"] == "collision" for r in rs)
+                cells.append(f"0/{len(rs)} ({n_c} C, {len(rs) - n_c} T)")
+        rate = f"{100.0 * n_ok / n_all:.0f} %" if n_all else ""
+        lines.append(f"| {LABELS.get(m, m)} | " + " | ".join(cells) + f" | {rate} |")
+    return "\n".join(lines) + "\n"

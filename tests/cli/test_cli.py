@@ -1,0 +1,158 @@
+"""The d3dwa command line, as a user calls it (in-process through cli.main)."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import pytest
+import yaml
+
+from d3dwa_bullet.cli.app import main
+
+TINY = {
+    "name": "tiny",
+    "group": "custom",
+    "description": "a post between start and goal",
+    "start": [0.0, 0.0, 0.0],
+    "goal": [1.6, 0.0],
+    "obstacles": [{"type": "cylinder", "center": [0.8, 0.35], "radius": 0.1}],
+}
+
+
+@pytest.fixture
+def tiny_world(tmp_path):
+    path = tmp_path / "tiny.yaml"
+    path.write_text(yaml.safe_dump(TINY))
+    return path
+
+
+def test_worlds_lists_all_eleven(capsys):
+    assert main(["worlds", "--json"]) == 0
+    worlds = json.loads(capsys.readouterr().out)
+    assert [w["name"] for w in worlds][:11] == [
+        "TS1",
+        "TS2",
+        "TS3",
+        "TS4",
+        "US1",
+        "H1",
+        "H2",
+        "H3",
+        "R1",
+        "R2",
+        "R3",
+    ]
+    assert {w["group"] for w in worlds} == {"train", "unseen", "real"}
+
+
+def test_run_json_has_the_documented_keys(tiny_world, capsys, tmp_path):
+    png = tmp_path / "traj.png"
+    assert (
+        main(["run", "--world", str(tiny_world), "--method", "dwa3", "--json", "--plot", str(png)])
+        == 0
+    )
+    out = json.loads(capsys.readouterr().out)
+    keys = {
+        "world",
+        "method",
+        "seed",
+        "outcome",
+        "time_s",
+        "tl_m",
+        "pd_rad",
+        "min_clearance_m",
+        "steps",
+    }
+    assert keys <= set(out) and out["outcome"] == "goal" and out["world"] == "tiny"
+    assert png.stat().st_size > 10_000
+
+
+def test_run_with_start_goal_and_time_limit(capsys):
+    args = [
+        "run",
+        "--world",
+        "R1",
+        "--method",
+        "dwa2",
+        "--start",
+        "0.5,0,0",
+        "--goal",
+        "1.5,0.9",
+        "--time-limit",
+        "2",
+        "--json",
+    ]
+    assert main(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["outcome"] == "timeout" and out["steps"] == 20
+
+
+def test_eval_writes_results_table_and_figures(tiny_world, tmp_path, capsys):
+    out = tmp_path / "res"
+    args = [
+        "eval",
+        "--methods",
+        "dwa1,dwa3",
+        "--worlds",
+        str(tiny_world),
+        "--seeds",
+        "2",
+        "--out",
+        str(out),
+        "--workers",
+        "1",
+    ]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    with (out / "results.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 4 and {r["method"] for r in rows} == {"dwa1", "dwa3"}
+    table = (out / "table.md").read_text()
+    assert "| DWA III (2,1,1) |" in table and "tiny Time" in table and table.strip() in text
+    assert (out / "figures" / "tiny_time.png").exists()
+    assert len(list((out / "logs").glob("*.npz"))) == 4
+    # Running again resumes: nothing is recomputed, nothing is lost.
+    assert main(args) == 0
+    with (out / "results.csv").open() as fh:
+        assert len(list(csv.DictReader(fh))) == 4
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["run", "--world", "NOPE", "--method", "dwa1"], "unknown world 'NOPE'"),
+        (["run", "--world", "TS1", "--method", "dwa9"], "unknown method 'dwa9'"),
+        (["run", "--world", "TS1", "--method", "dwa1", "--goal", "1.5,0.3"], "field 'goal'"),
+        (["run", "--world", "TS1", "--method", "dwa1", "--start", "1,2"], "--start"),
+        (["run", "--world", "TS1", "--method", "dwa1", "--noise", "bogus"], "bogus"),
+        (["eval", "--methods", "dwa1", "--worlds", "TS1", "--seeds", "0"], "--seeds"),
+        (
+            [
+                "run",
+                "--world",
+                "TS1",
+                "--method",
+                "dwa1",
+                "--physics-hz",
+                "240",
+                "--control-hz",
+                "7",
+            ],
+            "not divisible",
+        ),
+    ],
+)
+def test_bad_input_exits_2_with_one_line(args, message, capsys):
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("d3dwa: error:") and message in err and "\n" not in err
+
+
+def test_malformed_world_file_names_file_and_field(tmp_path, capsys):
+    bad = dict(TINY, obstacles=[{"type": "box", "center": [1, 1], "size": [-0.2, 0.3]}])
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(bad))
+    assert main(["run", "--world", str(path), "--method", "dwa1"]) == 2
+    err = capsys.readouterr().err
+    assert "bad.yaml" in err and "obstacles[0]" in err and "size" in err

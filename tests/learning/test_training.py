@@ -1,0 +1,304 @@
+"""Training: a tiny run's outputs, exact resumption, interrupt and failure safety, bad configs."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from d3dwa_bullet.cli.app import main
+from d3dwa_bullet.errors import CheckpointError, ConfigError
+from d3dwa_bullet.learning.agents.checkpoint import EXTRA_FILES, load_checkpoint, save_checkpoint
+from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
+from d3dwa_bullet.learning.agents.dqdwa import DQDWAConfig
+from d3dwa_bullet.learning.agents.policy import load_policy
+from d3dwa_bullet.learning.env import D3DWAEnv
+from d3dwa_bullet.learning.training.trainer import (
+    TrainConfig,
+    Trainer,
+    TrainingError,
+    load_train_config,
+    read_episodes,
+    read_metrics,
+    train,
+)
+from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
+from d3dwa_bullet.resources import configs_dir
+
+TINY_WORLD = """\
+name: tiny
+group: train
+description: open floor, goal 1.2 m ahead, one post off the line
+start: [0.0, 0.0, 0.0]
+goal: [1.2, 0.0]
+obstacles:
+  - {type: cylinder, center: [0.6, 0.6], radius: 0.15}
+"""
+SMALL_AGENT = D3QNConfig(
+    hidden=(16, 16), batch_size=8, buffer_size=400, learning_starts=20, eps_decay=100
+)
+
+
+@pytest.fixture
+def tiny(tmp_path: Path) -> str:
+    path = tmp_path / "tiny.yaml"
+    path.write_text(TINY_WORLD)
+    return str(path)
+
+
+def _config(world: str, **changes) -> TrainConfig:
+    base = dict(
+        method="d3dwa",
+        total_steps=120,
+        worlds=(world,),
+        generators=(),
+        agent=SMALL_AGENT,
+        eval_every=0,
+        eval_worlds=(world,),
+        checkpoint_every=0,
+        log_every=20,
+        keep="final",
+    )
+    return TrainConfig(**(base | changes))
+
+
+def _episodes(out: Path) -> list[dict[str, str]]:
+    with (out / "episodes.csv").open(newline="") as fh:
+        return [{k: v for k, v in r.items() if k != "wall_time"} for r in csv.DictReader(fh)]
+
+
+def _weights(path: Path) -> dict[str, torch.Tensor]:
+    return torch.load(path / "weights.pt", weights_only=True)
+
+
+def test_tiny_run_writes_checkpoint_config_and_metrics(tiny: str, tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    config = _config(tiny, eval_every=60, keep="best")
+    summary = train(config, out, progress=False)
+    assert summary["status"] == "done" and summary["env_steps"] == 120
+    assert summary["train_steps"] > 0 and summary["episodes"] >= 1
+    assert load_train_config(out / "config.json") == config
+    for name in ("episodes.csv", "metrics.jsonl", "learning_curve.png", "summary.json"):
+        assert (out / name).is_file(), name
+    assert (out / "learning_curve.png").read_bytes()[:4] == b"\x89PNG"
+    tags = {r["tag"] for r in read_metrics(out)}
+    assert tags >= {
+        "charts/episodic_return",
+        "charts/success_rate",
+        "charts/epsilon",
+        "losses/td_loss",
+        "planner/tau",
+        "eval/success_rate",
+    }
+    hist = read_metrics(out, "planner/tau")[0]["histogram"]
+    assert set(hist) == {"2", "3", "4", "5"}
+    latest = out / "checkpoints" / "latest"
+    assert {p.name for p in latest.iterdir()} >= {"config.json", "replay.npz", "training_state.pt"}
+    torch.load(latest / "training_state.pt", weights_only=True)  # tensors and plain values only
+    policy_dir = out / "policy"
+    assert {p.name for p in policy_dir.iterdir()} == {
+        "meta.json",
+        "weights.pt",
+        "config.json",
+        "learning_curve.png",
+    }
+    policy, actions, meta = load_policy(policy_dir, expected_actions=ACTIONS_FULL)
+    assert meta["method"] == "d3dwa" and meta["metadata"]["selected"] == "best"
+    assert 0 <= policy(np.full(12, 0.5)) < 100
+    with pytest.raises(ConfigError, match="already holds a training run"):
+        train(config, out, progress=False)
+
+
+def test_route_start_episodes_are_logged_but_not_rated_by_the_curriculum(
+    tiny: str, tmp_path: Path
+) -> None:
+    out = tmp_path / "run"
+    config = _config(tiny, total_steps=200, route_start_prob=0.5, curriculum="adaptive")
+    trainer = Trainer(config, out)
+    trainer.run(progress=False)
+    rows = read_episodes(out)
+    flags = [r["route_start"] for r in rows]
+    assert True in flags and False in flags  # both kinds were drawn
+    window = trainer.history["tiny"]
+    nominal = [int(r["outcome"] == "goal") for r in rows if not r["route_start"]]
+    assert list(window) == nominal[-config.curriculum_window :]
+
+
+def _interrupt_at(monkeypatch: pytest.MonkeyPatch, step: int) -> None:
+    """Send SIGINT to ourselves from inside the step-th env.step of the next run."""
+    original = D3DWAEnv.step
+    calls = {"n": 0}
+
+    def step_then_interrupt(self, action):
+        calls["n"] += 1
+        if calls["n"] == step:
+            os.kill(os.getpid(), signal.SIGINT)
+        return original(self, action)
+
+    monkeypatch.setattr(D3DWAEnv, "step", step_then_interrupt)
+
+
+def test_interrupt_and_resume_continue_exactly(
+    tiny: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    config = _config(tiny)
+    a, b = tmp_path / "a", tmp_path / "b"
+    done = train(config, a, progress=False)
+
+    with monkeypatch.context() as m:
+        _interrupt_at(m, 37)
+        stopped = train(replace(config, total_steps=90), b, progress=False)
+    assert stopped["status"] == "interrupted" and stopped["env_steps"] == 37
+    assert not (b / "policy").exists()
+    assert json.loads((b / "checkpoints/latest/meta.json").read_text())["env_steps"] == 37
+    part = train(None, b, resume=True, progress=False)  # the run's own config: 90 steps
+    assert part["status"] == "done" and part["env_steps"] == 90
+    resumed = train(config, b, resume=True, progress=False)  # extend to 120
+    assert resumed["env_steps"] == done["env_steps"] == 120
+    assert resumed["train_steps"] == done["train_steps"]
+    assert resumed["episodes"] == done["episodes"]
+    assert _episodes(a) == _episodes(b)
+    wa, wb = _weights(a / "policy"), _weights(b / "policy")
+    assert all(torch.equal(wa[k], wb[k]) for k in wa)
+    ra = np.load(a / "checkpoints/latest/replay.npz")
+    rb = np.load(b / "checkpoints/latest/replay.npz")
+    for k in ra.files:
+        np.testing.assert_array_equal(ra[k], rb[k])
+    sa = json.loads((a / "checkpoints/latest/training_state.json").read_text())
+    sb = json.loads((b / "checkpoints/latest/training_state.json").read_text())
+    assert sa["agent_rng"] == sb["agent_rng"] and sa["epsilon"] == sb["epsilon"]
+
+
+def test_failure_does_not_clobber_the_checkpoint(
+    tiny: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    out = tmp_path / "run"
+    config = _config(tiny, total_steps=60, checkpoint_every=30)
+    train(config, out, progress=False)
+    latest = out / "checkpoints" / "latest"
+    before = {p.name: p.read_bytes() for p in latest.iterdir()}
+    original = D3DWAEnv.step
+    calls = {"n": 0}
+
+    def failing_step(self, action):
+        calls["n"] += 1
+        if calls["n"] > 55:  # past a due checkpoint (step 90), before the end of the run
+            raise RuntimeError("simulated crash")
+        return original(self, action)
+
+    monkeypatch.setattr(D3DWAEnv, "step", failing_step)
+    with pytest.raises(RuntimeError, match="simulated crash"):
+        train(replace(config, total_steps=200), out, resume=True, progress=False)
+    assert {p.name: p.read_bytes() for p in latest.iterdir()} == before
+    monkeypatch.undo()
+    # and the run still resumes from that checkpoint
+    assert train(replace(config, total_steps=70), out, resume=True, progress=False)["status"] == (
+        "done"
+    )
+
+
+def test_non_finite_weights_are_never_saved(tiny: str, tmp_path: Path) -> None:
+    trainer = Trainer(_config(tiny), tmp_path / "run")
+    agent = D3QNAgent(ACTIONS_FULL, SMALL_AGENT)
+    with torch.no_grad():
+        next(agent.online.parameters())[0, 0] = float("nan")
+    with pytest.raises(TrainingError, match="NaN"):
+        trainer.save_policy("best", agent, {})
+    assert not (tmp_path / "run" / "checkpoints" / "best").exists()
+
+
+def test_resume_refuses_a_changed_config(tiny: str, tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    config = _config(tiny, total_steps=30)
+    train(config, out, progress=False)
+    with pytest.raises(ConfigError, match="only total_steps"):
+        train(replace(config, seed=5), out, resume=True, progress=False)
+    with pytest.raises(ConfigError, match="nothing to resume"):
+        train(None, tmp_path / "empty", resume=True, progress=False)
+
+
+def test_dqdwa_through_the_cli(tiny: str, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    cfg = tmp_path / "dqdwa.yaml"
+    cfg.write_text(
+        f"method: dqdwa\ntotal_steps: 80\nworlds: [{tiny}]\ngenerators: []\n"
+        f"eval_every: 80\neval_worlds: [{tiny}]\nlog_every: 20\nagent: {{eps_decay: 50}}\n"
+    )
+    out, export = tmp_path / "run", tmp_path / "policies" / "dqdwa"
+    code = main(
+        ["train", "--config", str(cfg), "--out", str(out), "--export", str(export), "--json"]
+    )
+    summary = json.loads(capsys.readouterr().out)
+    assert code == 0 and summary["status"] == "done" and summary["env_steps"] == 80
+    config = load_train_config(out / "config.json")
+    assert config.reward_scale == 1.0 and isinstance(config.agent, DQDWAConfig)
+    _, actions, meta = load_policy(export, expected_actions=ACTIONS_WEIGHTS_ONLY)
+    assert meta["agent"] == "dqdwa" and (export / "config.json").is_file()
+    assert "losses/td_loss" in {r["tag"] for r in read_metrics(out)}
+
+
+@pytest.mark.parametrize(
+    ("changes", "match"),
+    [
+        ({"horizons": ()}, "horizons: the candidate set is empty"),
+        ({"weights": (0.0, 1.0)}, "weights: candidate 0.0 must be"),
+        ({"weights": (-1.0, 2.0)}, "must be a finite number > 0"),
+        ({"agent": D3QNConfig(batch_size=64, buffer_size=64)}, None),
+        ({"worlds": ("TS1", "US1")}, "evaluation-only"),
+        ({"eval_worlds": ("H2",)}, "evaluation-only"),
+        ({"method": "dwa3"}, "not a learned method"),
+        ({"noise": ("none", "real"), "noise_probs": (1.0,)}, "noise_probs"),
+        ({"keep": "best", "eval_every": 0}, "eval_every"),
+        ({"total_steps": 0}, "total_steps"),
+        ({"agent": DQDWAConfig()}, "needs a D3QNConfig"),
+        ({"route_start_prob": 1.5}, "route_start_prob"),
+        ({"route_start_span": 1.0}, "route_start_span"),
+    ],
+)
+def test_bad_configs_raise(changes: dict, match: str | None) -> None:
+    if "agent" in changes and match is None:  # buffer smaller than batch: the agent's check
+        with pytest.raises(ConfigError, match="buffer_size"):
+            D3QNConfig(batch_size=64, buffer_size=32)
+        return
+    with pytest.raises(ConfigError, match=match):
+        TrainConfig(**{"worlds": ("TS1",), "generators": (), "eval_worlds": ("TS1",)} | changes)
+
+
+def test_bad_config_files_raise(tmp_path: Path) -> None:
+    path = tmp_path / "bad.yaml"
+    path.write_text("method: d3dwa\nlearning_rate: 0.1\n")
+    with pytest.raises(ConfigError, match="unknown field.*learning_rate"):
+        load_train_config(path)
+    path.write_text("method: d3dwa\nagent: {batch_size: 128, buffer_size: 100}\n")
+    with pytest.raises(ConfigError, match="bad.yaml.*buffer_size"):
+        load_train_config(path)
+    path.write_text("method: d3dwa\nhorizons: []\n")
+    with pytest.raises(ConfigError, match="empty"):
+        load_train_config(path)
+    with pytest.raises(ConfigError, match="--method"):
+        load_train_config(configs_dir() / "d3dwa.yaml", method="dqdwa")
+
+
+@pytest.mark.parametrize("method", ["d3dwa", "d3dwa-weights", "d3dwa-dr", "dqdwa"])
+def test_committed_configs(method: str) -> None:
+    config = load_train_config(configs_dir() / f"{method}.yaml")
+    assert config.method == method
+    assert config.reward_scale == (1.0 if method == "dqdwa" else 0.01)
+    assert all(w.startswith(("TS", "R1-style", "R2-style", "R3-style")) for w in config.eval_worlds)
+
+
+def test_checkpoint_extra_files_are_digested(tmp_path: Path) -> None:
+    agent = D3QNAgent(ACTIONS_FULL, SMALL_AGENT)
+    out = save_checkpoint(tmp_path / "c", agent, extra_files={"config.json": b"{}"})
+    meta = json.loads((out / "meta.json").read_text())
+    assert set(meta["files"]) == {"weights.pt", "config.json"}
+    load_checkpoint(out)
+    assert "config.json" in EXTRA_FILES
+    with pytest.raises(CheckpointError, match="not allowed"):
+        save_checkpoint(tmp_path / "d", agent, extra_files={"notes.txt": b""})

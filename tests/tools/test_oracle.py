@@ -1,0 +1,120 @@
+"""The action-set probes: geodesic route field, arc end points, the oracle and the script."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from d3dwa_bullet.episode import EpisodeConfig
+from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
+from d3dwa_bullet.planning.observation import goal_in_body
+from d3dwa_bullet.planning.planner import plan
+from d3dwa_bullet.sim.odometry import arc_step
+from d3dwa_bullet.world.grid import geodesic_field
+from d3dwa_bullet.world.model import Box, World
+from tools.experiments import probe_actions
+from tools.experiments.oracle import ORACLE, fixed_action_outcome, oracle_choice, run_oracle
+
+
+def _at(field, x, y) -> float:
+    i, j = field.cell_of(np.array([[x, y]]))[0]
+    return float(field.values[i, j])
+
+
+def test_geodesic_field_is_the_straight_distance_in_the_open(open_world):
+    route = geodesic_field(open_world)
+    assert _at(route, 1.5, 0.0) == 0.0
+    assert _at(route, 0.0, 0.0) == pytest.approx(1.5, abs=1e-9)  # along a grid axis: exact
+    # off-axis, the 8-connected grid overestimates by at most 1 - cos(22.5 deg) ~ 8 %
+    d = _at(route, 0.0, 1.0)
+    assert math.hypot(1.5, 1.0) <= d <= 1.09 * math.hypot(1.5, 1.0)
+
+
+def test_geodesic_field_goes_round_a_wall_and_marks_it_blocked():
+    # a 2 m wall across the straight line: the route must pass one of its ends
+    world = World("w", "wall", (0.0, 0.0, 0.0), (2.0, 0.0), (Box((1.0, 0.0), (0.1, 2.0)),))
+    route = geodesic_field(world)
+    around = 2 * math.hypot(1.0, 1.0 + 0.2)  # via an end inflated by r + m = 0.20 m
+    assert _at(route, 0.0, 0.0) >= around - 0.05
+    assert _at(route, 0.0, 0.0) > 2.0 + 0.5
+    assert math.isinf(_at(route, 1.0, 0.0))  # inside the inflated wall
+
+
+def test_arc_step_over_a_whole_horizon_matches_the_closed_forms():
+    # the oracle holds each command for its action's tau (2-5 s), far beyond one control period
+    assert arc_step(1.0, 2.0, 0.0, 0.4, 0.0, 2.0)[:2] == pytest.approx((1.8, 2.0))  # straight
+    r = 2 / math.pi  # quarter circle to the left: radius v / w
+    assert arc_step(1.0, 2.0, 0.0, 1.0, math.pi / 2, 1.0)[:2] == pytest.approx((1.0 + r, 2.0 + r))
+    assert arc_step(1.0, 2.0, 0.0, 0.0, 1.0, 3.0)[:2] == pytest.approx((1.0, 2.0))  # in place
+
+
+def test_arc_step_over_a_whole_horizon_agrees_with_integrating_the_unicycle():
+    pose, v, w, tau = (0.3, -0.2, 0.7), 0.35, -1.3, 4.0
+    x, y, th = pose
+    n = 40000
+    for _ in range(n):
+        x += v * math.cos(th) * tau / n
+        y += v * math.sin(th) * tau / n
+        th += w * tau / n
+    assert arc_step(*pose, v, w, tau)[:2] == pytest.approx((x, y), abs=1e-4)
+
+
+def test_oracle_prefers_the_action_heading_round_the_wall_not_into_it():
+    world = World("w", "wall", (0.0, 0.0, 0.0), (3.0, 0.0), (Box((1.5, 0.0), (0.1, 3.0)),))
+    route = geodesic_field(world)
+    # robot at 0.9 m from the wall's face, facing the goal; its scan sees the wall.
+    ys = np.linspace(-1.5, 1.5, 151)
+    points = np.column_stack((np.full_like(ys, 1.45 - 0.5), ys))
+    config = EpisodeConfig()
+    index = oracle_choice((0.5, 0.0, 0.0), (0.2, 0.0), points, world.goal, ACTIONS_FULL,
+                          route, config)  # fmt: skip
+    assert 0 <= index < len(ACTIONS_FULL)
+    # the chosen command's arc end is no farther along the route than any other action's
+    gb = goal_in_body((0.5, 0.0, 0.0), world.goal)
+    plans = [plan((0.2, 0.0), points, gb, a, config.planner) for a in ACTIONS_FULL.actions]
+    ends = [arc_step(0.5, 0.0, 0.0, p.v, p.w, a.tau)[:2]
+            for p, a in zip(plans, ACTIONS_FULL.actions, strict=True)]  # fmt: skip
+    cells = route.cell_of(np.asarray(ends))
+    remaining = route.values[cells[:, 0], cells[:, 1]]
+    assert remaining[index] == remaining.min()
+    assert remaining[index] < _at(route, 0.5, 0.0)  # it makes progress along the route
+
+
+def test_oracle_reaches_an_open_goal(open_world):
+    result = run_oracle(open_world, ACTIONS_WEIGHTS_ONLY)
+    assert result.outcome == "goal"
+    assert result.method == ORACLE
+    assert result.tl_m == pytest.approx(1.4, abs=0.05)  # straight on to the 0.1 m tolerance
+
+
+def test_fixed_action_episode_is_that_action_at_every_step(open_world):
+    result = fixed_action_outcome(open_world, ACTIONS_FULL, 7)
+    assert result.outcome == "goal" and result.method == "a7"
+    wp, wc, ws, tau = ACTIONS_FULL.decode(7)
+    assert result.steps > 0
+    for name, value in (("wp", wp), ("wc", wc), ("ws", ws), ("tau", tau)):
+        assert np.all(result.log[name] == value), name
+
+
+def _script():
+    return probe_actions
+
+
+def test_probe_script_counts_fixed_actions_and_the_oracle(one_second_world, capsys):
+    # a 1 s episode cannot cover the 1.6 m to the goal: every probe times out
+    assert _script().main([one_second_world, "--actions", "weights", "--json"]) == 0
+    (row,) = json.loads(capsys.readouterr().out)
+    assert row["fixed_total"] == 25
+    assert row["fixed_goal"] == 0 and row["fastest_fixed"] is None
+    assert row["fixed_collision"] == 0
+    assert row["oracle"] == "timeout" and row["oracle_time_s"] is None
+    x, y = row["oracle_final_xy"]
+    assert 0.0 < x < 0.5 and abs(y) < 0.2  # 10 steps of at most 0.04 m from the start
+
+
+def test_probe_script_rejects_an_unknown_world(capsys):
+    assert _script().main(["NOWHERE", "--no-fixed"]) == 2
+    assert "NOWHERE" in capsys.readouterr().err

@@ -1,0 +1,72 @@
+"""Benchmark full control steps (physics + lidar + estimator + observation + planner).
+
+Runs DWA III (fixed weights, tau = 4 s) in DIRECT mode on a few shipped worlds and reports
+control steps per wall-clock second, excluding simulator start-up, and per CPU-second of
+this process (the figure that stays meaningful when other work shares the cores). The
+whole run is repeated (--repeats, default 3) and the median repeat is reported, with the
+slowest and fastest beside it: on a shared virtual machine single runs vary by +-10 %.
+
+    python scripts/bench_env.py --json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+from d3dwa_bullet.episode import Episode
+from d3dwa_bullet.methods import make_controller
+from d3dwa_bullet.world.model import load_world
+
+
+def bench(worlds: list[str], steps: int, method: str) -> dict:
+    controller = make_controller(method)
+    total_steps, total_time, total_cpu = 0, 0.0, 0.0
+    for name in worlds:
+        with Episode(load_world(name)) as ep:
+            t0, c0 = time.perf_counter(), time.process_time()
+            n = 0
+            while n < steps:
+                obs = ep.observe()
+                if ep.outcome is not None:
+                    break
+                ep.act(*controller(obs))
+                n += 1
+            total_time += time.perf_counter() - t0
+            total_cpu += time.process_time() - c0
+            total_steps += n
+    return {
+        "steps_per_s": round(total_steps / total_time, 1),
+        "steps_per_cpu_s": round(total_steps / total_cpu, 1),
+        "steps": total_steps,
+        "worlds": worlds,
+        "method": method,
+        "real_time_factor": round(total_steps * 0.1 / total_time, 1),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    ap.add_argument("--worlds", default="TS1,TS3,H1,R3", help="comma list of worlds")
+    ap.add_argument("--steps", type=int, default=300, help="max control steps per world")
+    ap.add_argument("--method", default="dwa3")
+    ap.add_argument("--repeats", type=int, default=3, help="whole runs; the median is reported")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+    runs = sorted(
+        (bench(args.worlds.split(","), args.steps, args.method) for _ in range(args.repeats)),
+        key=lambda r: r["steps_per_s"],
+    )
+    out = runs[len(runs) // 2] | {
+        "repeats": args.repeats,
+        "slowest_steps_per_s": runs[0]["steps_per_s"],
+        "fastest_steps_per_s": runs[-1]["steps_per_s"],
+    }
+    print(json.dumps(out) if args.json else "\n".join(f"{k:>16}: {v}" for k, v in out.items()))
+
+
+if __name__ == "__main__":
+    main()
