@@ -22,15 +22,11 @@ topic, so a bag whose stamps are simulation time while its receive times are wal
 still lines commands up with scans. ``read_bag(..., clock="header"|"receive")`` forces a
 clock. ``BagData.clock`` and ``BagData.notes`` say which clock was used and why.
 
-Alignment: odometry is linearly interpolated to scan times (yaw through the shortest
-angular difference, i.e. unwrapped, then wrapped to (-pi, pi]); a scan before the first or
-after the last odometry sample has no pose and is skipped by the replay with that reason.
-At a scan time equal to an odometry stamp the odometry values are returned bit for bit.
+Alignment of odometry, IMU and commands to scan times: ``transfer.time_series``.
 """
 
 from __future__ import annotations
 
-import math
 from contextlib import suppress
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,119 +36,17 @@ import numpy as np
 
 from d3dwa_bullet.errors import BagFormatError, ScanError
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D
+from transfer.decode import decode_fields
+from transfer.mounts import body_yaw_rate, find_lidar_mount
+from transfer.time_series import Goal, ImuSeries, OdometrySeries, TimedValues
 from transfer.topics import LASER_SCAN, TopicMap, TopicResolution, resolve_topics
-from transfer.transforms import (
-    TransformTree,
-    matrix_from_transform,
-    pose2d_from_matrix,
-    wrap_angles,
-    yaw_from_quaternion,
-)
+from transfer.transforms import TransformTree
 
 Clock = Literal["auto", "header", "receive"]
-
-#: Frames tried, in order, as the robot body frame when looking up the lidar mount.
-BASE_FRAMES = ("base_link", "base_footprint")
-#: Kachaka's lidar mount in base_link (SPEC section 3), used when a bag has no transform.
-KACHAKA_LIDAR_MOUNT = Pose2D(0.156, 0.0, 0.0)
 
 REJECT_ZERO_BEAMS = "zero beams"
 REJECT_GEOMETRY = "invalid scan geometry"
 REJECT_CORRUPT = "corrupt message"
-
-
-def _stamp_ns(header: Any) -> int:
-    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
-
-
-@dataclass(frozen=True)
-class OdometrySeries:
-    """nav_msgs/Odometry as arrays, sorted by time, one sample per distinct stamp.
-
-    t_ns: (N,) int64 ns (replay clock); x, y: m; yaw: rad in (-pi, pi]; v: m/s (twist
-    linear.x); w: rad/s (twist angular.z). Pose in ``frame_id``, twist in ``child_frame_id``.
-    """
-
-    t_ns: np.ndarray
-    x: np.ndarray
-    y: np.ndarray
-    yaw: np.ndarray
-    v: np.ndarray
-    w: np.ndarray
-    frame_id: str = ""
-    child_frame_id: str = ""
-
-    def __len__(self) -> int:
-        return int(self.t_ns.size)
-
-    def at(self, t_ns: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Interpolate to query times.
-
-        Returns pose (M, 3) [x, y, yaw], twist (M, 2) [v, w], and where (M,) int8:
-        -1 before the first sample, 0 covered, +1 after the last sample (pose and twist
-        hold the nearest end sample there; the replay skips those scans).
-        """
-        t_q = np.asarray(t_ns, dtype=np.int64)
-        i, j, frac = _bracket(self.t_ns, t_q)
-        cols = [_lerp(a, i, j, frac) for a in (self.x, self.y)]
-        yaw = wrap_angles(self.yaw[i] + frac * wrap_angles(self.yaw[j] - self.yaw[i]))
-        twist = [_lerp(a, i, j, frac) for a in (self.v, self.w)]
-        where = np.where(t_q < self.t_ns[0], -1, np.where(t_q > self.t_ns[-1], 1, 0))
-        return np.column_stack((*cols, yaw)), np.column_stack(twist), where.astype(np.int8)
-
-
-@dataclass(frozen=True)
-class ImuSeries:
-    """Gyro yaw rate: t_ns (N,) int64 ns, w_z (N,) rad/s about the base z axis."""
-
-    t_ns: np.ndarray
-    w_z: np.ndarray
-    frame_id: str = ""
-
-    def __len__(self) -> int:
-        return int(self.t_ns.size)
-
-    def at(self, t_ns: np.ndarray) -> np.ndarray:
-        """(M,) rad/s interpolated to query times; NaN outside the recorded span."""
-        t_q = np.asarray(t_ns, dtype=np.int64)
-        i, j, frac = _bracket(self.t_ns, t_q)
-        out = _lerp(self.w_z, i, j, frac)
-        return np.where((t_q < self.t_ns[0]) | (t_q > self.t_ns[-1]), np.nan, out)
-
-
-@dataclass(frozen=True)
-class TimedValues:
-    """Headerless samples: t_ns (N,) int64 ns, values (N, k) float64."""
-
-    t_ns: np.ndarray
-    values: np.ndarray
-
-    def __len__(self) -> int:
-        return int(self.t_ns.size)
-
-    def nearest(self, t_ns: np.ndarray, max_gap_ns: int) -> np.ndarray:
-        """(M, k): the sample nearest in time to each query, NaN if none within max_gap_ns."""
-        t_q = np.asarray(t_ns, dtype=np.int64)
-        k = self.values.shape[1]
-        if len(self) == 0:
-            return np.full((t_q.size, k), np.nan)
-        hi = np.clip(np.searchsorted(self.t_ns, t_q), 0, len(self) - 1)
-        lo = np.clip(hi - 1, 0, len(self) - 1)
-        pick = np.where(np.abs(self.t_ns[lo] - t_q) <= np.abs(self.t_ns[hi] - t_q), lo, hi)
-        out = self.values[pick].astype(np.float64)
-        out[np.abs(self.t_ns[pick] - t_q) > max_gap_ns] = np.nan
-        return out
-
-
-@dataclass(frozen=True)
-class Goal:
-    """A goal pose from geometry_msgs/PoseStamped: (x, y) m and yaw rad in frame_id."""
-
-    t_ns: int
-    x: float
-    y: float
-    yaw: float
-    frame_id: str
 
 
 @dataclass
@@ -189,22 +83,6 @@ class BagData:
     notes: list[str] = field(default_factory=list)
 
 
-def _bracket(t_src: np.ndarray, t_q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Indices i <= j around each query and the fraction in [0, 1] between them."""
-    n = t_src.size
-    i = np.clip(np.searchsorted(t_src, t_q, side="right") - 1, 0, n - 1)
-    j = np.minimum(i + 1, n - 1)
-    span = (t_src[j] - t_src[i]).astype(np.float64)
-    offset = (t_q - t_src[i]).astype(np.float64)
-    frac = np.divide(offset, span, out=np.zeros_like(span), where=span > 0)
-    return i, j, np.clip(frac, 0.0, 1.0)
-
-
-def _lerp(a: np.ndarray, i: np.ndarray, j: np.ndarray, frac: np.ndarray) -> np.ndarray:
-    # a[i] + 0 * (...) keeps knot values bit-exact.
-    return a[i] + frac * (a[j] - a[i])
-
-
 def _usable_stamps(stamps: np.ndarray) -> str | None:
     """Why header stamps cannot drive the replay, or None if they can."""
     if stamps.size == 0:
@@ -217,6 +95,7 @@ def _usable_stamps(stamps: np.ndarray) -> str | None:
 
 
 def _open(path: Path) -> Any:
+    # rosbags takes ~0.1 s to import; every `d3dwa` command imports transfer, few open a bag.
     from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_typestore
 
@@ -228,57 +107,6 @@ def _open(path: Path) -> Any:
     except Exception as err:
         raise BagFormatError(f"{path}: cannot open bag: {err}") from err
     return reader
-
-
-def _extract(role: str, msg: Any) -> Any:
-    """The fields a role needs, as plain Python/numpy values (raises on malformed data)."""
-    if role == "scan":
-        return (
-            _stamp_ns(msg.header),
-            msg.header.frame_id,
-            float(msg.angle_min),
-            float(msg.angle_increment),
-            np.asarray(msg.ranges, dtype=np.float64).copy(),
-            float(msg.range_min),
-            float(msg.range_max),
-        )
-    if role in ("odometry", "wheel_odometry"):
-        p, q = msg.pose.pose.position, msg.pose.pose.orientation
-        t = msg.twist.twist
-        values = (
-            float(p.x),
-            float(p.y),
-            yaw_from_quaternion(q.x, q.y, q.z, q.w),
-            float(t.linear.x),
-            float(t.angular.z),
-        )
-        if not all(math.isfinite(v) for v in values):  # would poison the interpolation
-            raise ValueError(f"non-finite pose or twist {values}")
-        return (_stamp_ns(msg.header), msg.header.frame_id, msg.child_frame_id, *values)
-    if role == "imu":
-        av = msg.angular_velocity
-        if not math.isfinite(av.z):
-            raise ValueError(f"non-finite angular_velocity.z {av.z}")
-        return (_stamp_ns(msg.header), msg.header.frame_id, float(av.x), float(av.y), float(av.z))
-    if role in ("tf", "tf_static"):
-        out = []
-        for ts in msg.transforms:
-            tr, rot = ts.transform.translation, ts.transform.rotation
-            mat = matrix_from_transform((tr.x, tr.y, tr.z), (rot.x, rot.y, rot.z, rot.w))
-            out.append((_stamp_ns(ts.header), ts.header.frame_id, ts.child_frame_id, mat))
-        return out
-    if role == "goal":
-        p, q = msg.pose.position, msg.pose.orientation
-        yaw = yaw_from_quaternion(q.x, q.y, q.z, q.w)
-        return (_stamp_ns(msg.header), msg.header.frame_id, float(p.x), float(p.y), yaw)
-    if role == "cmd_vel":
-        return (float(msg.linear.x), float(msg.angular.z))
-    if role == "planner_params":
-        data = np.asarray(msg.data, dtype=np.float64)
-        if data.size != 5:
-            raise ValueError(f"expected 5 values [wp, wc, ws, tau, action_index], got {data.size}")
-        return data.copy()
-    raise KeyError(role)
 
 
 def _odometry_series(samples: list[tuple[int, Any]], clock: str) -> OdometrySeries | None:
@@ -352,7 +180,7 @@ def read_bag(
                 break
             try:
                 msg = reader.deserialize(data, conn.msgtype)
-                records = [(role, _extract(role, msg)) for role in roles_of[conn.topic]]
+                records = [(role, decode_fields(role, msg)) for role in roles_of[conn.topic]]
             except Exception:  # noqa: BLE001 - any decoding failure is one corrupt message
                 corrupt[conn.topic] = corrupt.get(conn.topic, 0) + 1
                 if "scan" in roles_of[conn.topic]:
@@ -442,7 +270,7 @@ def _assemble(
     if mount is not None:
         mount_source = "argument"
     else:
-        mount, flipped, mount_source = _find_mount(tree, scan_frame)
+        mount, flipped, mount_source = find_lidar_mount(tree, scan_frame)
         if mount_source.startswith("default"):
             notes.append(f"mount: {mount_source}")
 
@@ -510,39 +338,6 @@ def _assemble(
     )
 
 
-def _find_mount(tree: TransformTree, scan_frame: str) -> tuple[Pose2D, bool, str]:
-    """The lidar frame's pose in the body frame: (pose, upside down, how it was found)."""
-    if scan_frame in BASE_FRAMES:
-        return Pose2D(), False, f"scan frame is {scan_frame!r}"
-    for base in BASE_FRAMES:
-        mat = tree.lookup(base, scan_frame)
-        if mat is not None:
-            pose, flipped = pose2d_from_matrix(mat)
-            chain = " -> ".join(tree.path(base, scan_frame) or [])
-            kind = (
-                "static"
-                if all(k in tree.static for k in _chain_keys(tree, base, scan_frame))
-                else "tf"
-            )
-            extra = ", lidar upside down: scan angles mirrored" if flipped else ""
-            return pose, flipped, f"{kind} transform {chain}{extra}"
-    k = KACHAKA_LIDAR_MOUNT
-    return (
-        k,
-        False,
-        f"default Kachaka lidar mount ({k.x}, {k.y}, yaw {k.yaw}): no transform from "
-        f"{' or '.join(BASE_FRAMES)} to scan frame {scan_frame!r} in the bag's tf",
-    )
-
-
-def _chain_keys(tree: TransformTree, target: str, source: str) -> list[tuple[str, str]]:
-    chain = tree.path(target, source) or []
-    keys = []
-    for a, b in zip(chain[:-1], chain[1:], strict=True):
-        keys.append((a, b) if (a, b) in tree.static or (a, b) in tree.dynamic else (b, a))
-    return keys
-
-
 def _imu_series(
     samples: list[tuple[int, Any]], clock: str, tree: TransformTree, notes: list[str]
 ) -> ImuSeries | None:
@@ -551,13 +346,9 @@ def _imu_series(
     t = np.array([s[1][0] if clock == "header" else s[0] for s in samples], dtype=np.int64)
     omega = np.array([s[1][2:] for s in samples], dtype=np.float64).reshape(-1, 3)
     frame = samples[0][1][1].lstrip("/")
-    w_z = omega[:, 2]
-    if frame and frame not in BASE_FRAMES:
-        mat = next((m for b in BASE_FRAMES if (m := tree.lookup(b, frame)) is not None), None)
-        if mat is None:
-            notes.append(f"imu: no transform to frame {frame!r}; its z axis taken as the body's")
-        elif not np.allclose(mat[2, :3], (0.0, 0.0, 1.0)):
-            w_z = omega @ mat[2, :3]  # body z component of the rotated rate vector
+    w_z, note = body_yaw_rate(omega, frame, tree)
+    if note is not None:
+        notes.append(note)
     order = np.argsort(t, kind="stable")
     return ImuSeries(t[order], w_z[order], frame)
 
