@@ -79,7 +79,7 @@ class ActionSet:
             for t in itertools.product(weights, repeat=3)
             if not (t[0] == t[1] == t[2]) or t[0] == weights[0]
         ]
-        table = tuple(PlannerAction(*t, tau) for tau in horizons for t in triples)
+        table = tuple(PlannerAction(t[0], t[1], t[2], tau) for tau in horizons for t in triples)
         object.__setattr__(self, "_table", table)
         object.__setattr__(self, "_index", {a: i for i, a in enumerate(table)})
 

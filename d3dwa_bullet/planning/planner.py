@@ -70,7 +70,7 @@ class PlanResult(NamedTuple):
     """Commanded translational velocity, m/s."""
     w: float
     """Commanded angular velocity, rad/s."""
-    index: int
+    index: int  # type: ignore[assignment]  # shadows tuple.index; the public name stays
     """Chosen flat sample index, or -1 on fallback."""
     fallback: bool
     """True when no sample was admissible."""
