@@ -145,7 +145,7 @@ def probe_address(address: str, timeout: float = RAY_CONNECT_TIMEOUT_S) -> None:
         ) from err
     try:
         import grpc
-    except ImportError:  # Ray always brings grpcio
+    except ImportError:  # the ray extra declares grpcio; without it, the TCP check above stands alone
         return
     target = f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
     channel = grpc.insecure_channel(target)

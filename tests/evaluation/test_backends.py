@@ -141,7 +141,7 @@ def free_port() -> int:
 
 
 def test_probe_refuses_a_closed_port_quickly():
-    pytest.importorskip("grpc", reason="grpcio comes with ray")
+    pytest.importorskip("grpc", reason="grpcio comes with the ray extra")
     t0 = time.perf_counter()
     with pytest.raises(BackendError, match="does not answer"):
         probe_address(f"127.0.0.1:{free_port()}", timeout=1.0)
@@ -150,7 +150,7 @@ def test_probe_refuses_a_closed_port_quickly():
 
 def test_probe_refuses_an_open_port_that_is_not_ray():
     """A TCP server that is not gRPC (not a Ray GCS) must not pass for one."""
-    pytest.importorskip("grpc", reason="grpcio comes with ray")
+    pytest.importorskip("grpc", reason="grpcio comes with the ray extra")
     server = socket.socket()
     server.bind(("127.0.0.1", 0))
     server.listen()
