@@ -9,7 +9,9 @@ names, and ``compare`` sets two bags' scans side by side, sector by sector.
 from transfer.bag_reader import BagData, read_bag
 from transfer.bag_writer import BagRecorder, quantize_scan
 from transfer.compare import compare_scans, format_scan_comparison
-from transfer.replay import ReplayResult, ScanStep, SkipScan, StepOutput, observe_only, replay_bag
+from transfer.replay import replay_bag
+from transfer.replay_output import ReplayResult
+from transfer.replay_step import ScanStep, SkipScan, StepOutput, observe_only
 from transfer.topics import TopicMap, TopicResolution, resolve_topics
 
 __all__ = [

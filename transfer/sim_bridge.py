@@ -43,11 +43,13 @@ import numpy as np
 
 from d3dwa_bullet.episode import Episode, EpisodeConfig, observation_of, plan_from, run_episode
 from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.methods import Controller, make_controller
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult
 from d3dwa_bullet.sim.estimator import EstimatorConfig, PoseEstimator
 from d3dwa_bullet.sim.noise import NoiseModel, wrap_angle
 from d3dwa_bullet.world.model import World, load_world
+from transfer.replay_step import ScanStep, SkipScan, StepOutput
 
 Estimator = Literal["odometry", "ekf"]
 ESTIMATORS: tuple[str, ...] = ("odometry", "ekf")
@@ -95,7 +97,7 @@ class _EkfEstimate:
         self.config = config
         self.ekf: PoseEstimator | None = None
 
-    def __call__(self, step: Any) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(self, step: ScanStep) -> tuple[np.ndarray, np.ndarray]:
         t = step.t_ns / 1e9
         if self.ekf is None:
             self.ekf = PoseEstimator(self.config, pose=tuple(step.odom_pose), t=t)
@@ -129,9 +131,7 @@ class ReplayPipeline:
         self.estimator = estimator
         self._ekf = _EkfEstimate(estimator_config) if estimator == "ekf" else None
 
-    def __call__(self, step: Any) -> Any:
-        from transfer.replay import SkipScan, StepOutput
-
+    def __call__(self, step: ScanStep) -> StepOutput:
         if self._ekf is not None:
             pose, velocity = self._ekf(step)
         else:
@@ -295,8 +295,6 @@ def record_episode(
     YAML path ("none" for none); time_limit: s, overrides the world's. Returns the episode
     summary (``EpisodeResult.summary()``); ``on_result`` receives the full EpisodeResult.
     """
-    from d3dwa_bullet.evaluation.jobs import make_noise
-
     w = world if isinstance(world, World) else load_world(world)
     if time_limit is not None:
         w = w.with_task(time_limit=time_limit)

@@ -23,7 +23,9 @@ from d3dwa_bullet.errors import BagFormatError, ConfigError, D3DWAError
 from d3dwa_bullet.sim.scan import Pose2D
 from transfer.bag_writer import BagRecorder
 from transfer.compare import compare_scans, format_scan_comparison
-from transfer.replay import ReplayResult, StepFn, observe_only, replay_bag
+from transfer.replay import replay_bag
+from transfer.replay_output import ReplayResult
+from transfer.replay_step import StepFn, observe_only
 from transfer.topics import TopicMap
 
 #: Replay method that needs no simulator-side code: observations only, no decision.

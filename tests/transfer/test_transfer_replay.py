@@ -19,7 +19,9 @@ from d3dwa_bullet.planning.observation import build_observation
 from d3dwa_bullet.sim.scan import LaserScan, scan_points_body
 from tests.support.bag_messages import scan_msg
 from transfer.bag_writer import BagRecorder
-from transfer.replay import CSV_COLUMNS, ScanStep, StepOutput, replay_bag
+from transfer.replay import replay_bag
+from transfer.replay_output import CSV_COLUMNS
+from transfer.replay_step import ScanStep, StepOutput
 from transfer.synthetic import write_corridor_bag
 from transfer.topics import LASER_SCAN, TopicMap
 

@@ -23,7 +23,8 @@ from d3dwa_bullet.resources import profiles_dir
 from d3dwa_bullet.world.model import load_world
 from transfer.bag_reader import read_bag
 from transfer.bag_writer import BagRecorder
-from transfer.replay import ReplayResult, replay_bag
+from transfer.replay import replay_bag
+from transfer.replay_output import ReplayResult
 from transfer.sim_bridge import (
     DEFAULT_START_NS,
     make_step_fn,
