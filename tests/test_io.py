@@ -1,0 +1,68 @@
+"""Atomic writes: the new content or the old one, and no temporary file left either way."""
+
+from __future__ import annotations
+
+import os
+import stat
+
+import matplotlib.pyplot as plt
+import pytest
+
+from d3dwa_bullet.io import atomic_savefig, atomic_write_bytes, atomic_write_text
+
+
+class Boom(RuntimeError):
+    pass
+
+
+class FailingFigure:
+    """Writes half a file, then fails, as a savefig that runs out of disk would."""
+
+    def savefig(self, fh, **kwargs):
+        fh.write(b"half a png")
+        raise Boom("disk full")
+
+
+def test_text_and_bytes_replace_the_file_and_leave_no_temporary(tmp_path):
+    path = tmp_path / "page.md"
+    path.write_text("old")
+    assert atomic_write_text(path, "new ± text\n") == path
+    assert path.read_bytes() == "new ± text\n".encode()
+    atomic_write_bytes(tmp_path / "blob.bin", b"\x00\x01")
+    assert (tmp_path / "blob.bin").read_bytes() == b"\x00\x01"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["blob.bin", "page.md"]
+
+
+def test_new_file_gets_the_mode_of_an_ordinary_write(tmp_path):
+    atomic_write_text(tmp_path / "a.txt", "x")
+    (tmp_path / "b.txt").write_text("x")
+    mode = stat.S_IMODE(os.stat(tmp_path / "a.txt").st_mode)
+    assert mode == stat.S_IMODE(os.stat(tmp_path / "b.txt").st_mode)
+
+
+def test_failed_write_keeps_the_old_content_and_removes_the_temporary(tmp_path):
+    path = tmp_path / "figure.png"
+    path.write_bytes(b"old figure")
+    with pytest.raises(Boom):
+        atomic_savefig(FailingFigure(), path)
+    assert path.read_bytes() == b"old figure"
+    assert [p.name for p in tmp_path.iterdir()] == ["figure.png"]
+
+
+def test_failed_write_of_a_new_file_leaves_nothing(tmp_path):
+    with pytest.raises(TypeError):
+        atomic_write_bytes(tmp_path / "x.bin", "not bytes")  # type: ignore[arg-type]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_savefig_takes_the_format_from_the_suffix(tmp_path):
+    fig, ax = plt.subplots(figsize=(2, 2))
+    ax.plot([0, 1], [1, 0])
+    try:
+        atomic_savefig(fig, tmp_path / "f.png", dpi=50)
+        atomic_savefig(fig, tmp_path / "f.svg")
+    finally:
+        plt.close(fig)
+    assert (tmp_path / "f.png").read_bytes().startswith(b"\x89PNG")
+    assert b"<svg" in (tmp_path / "f.svg").read_bytes()[:500]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.png", "f.svg"]
