@@ -1,8 +1,9 @@
 """Learning agents that pick the planner's action: D3QN (d3dwa, d3dwa-weights) and tabular DQDWA.
 
 Modules: ``network`` (dueling Q-network), ``replay`` (uniform replay), ``d3qn`` (the D3QN
-algorithm), ``dqdwa`` (tabular baseline), ``checkpoint`` (save/load), ``policy`` (fast
-greedy policies for evaluation).
+algorithm), ``dqdwa`` (tabular baseline), ``checkpoint`` (save/load), ``training_state``
+(what a checkpoint adds to resume training exactly), ``policy`` (fast greedy policies for
+evaluation).
 """
 
 from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint, save_checkpoint

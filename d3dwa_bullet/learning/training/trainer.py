@@ -60,18 +60,12 @@ import yaml
 
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ConfigError, TrainingError
-from d3dwa_bullet.learning.agents.checkpoint import (
-    CONFIG_FILE,
-    CURVE_FILE,
-    load_checkpoint,
-    restore_training_state,
-    save_checkpoint,
-    training_state_files,
-)
+from d3dwa_bullet.learning.agents.checkpoint import CONFIG_FILE, CURVE_FILE, load_checkpoint, save_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
 from d3dwa_bullet.learning.agents.policy import greedy_policy
 from d3dwa_bullet.learning.agents.replay import Transition
+from d3dwa_bullet.learning.agents.training_state import restore_training_state, training_state_files
 from d3dwa_bullet.learning.env import TRAIN_WORLDS, D3DWAEnv, resolve_world
 from d3dwa_bullet.methods import LEARNED
 from d3dwa_bullet.planning.actions import ActionSet
