@@ -14,7 +14,6 @@ up to the failure stays readable.
 
 from __future__ import annotations
 
-import functools
 import shutil
 from contextlib import suppress
 from dataclasses import dataclass
@@ -26,6 +25,7 @@ import numpy as np
 
 from d3dwa_bullet.errors import BagFormatError
 from d3dwa_bullet.sim.scan import LaserScan
+from transfer.ros_messages import MessageBuilder, default_typestore
 from transfer.topics import (
     FLOAT64_ARRAY,
     IMU,
@@ -36,7 +36,6 @@ from transfer.topics import (
     TWIST,
     TopicMap,
 )
-from transfer.transforms import quaternion_from_yaw
 
 Storage = Literal["sqlite3", "mcap", "ros1"]
 
@@ -70,19 +69,6 @@ def quantize_scan(scan: LaserScan) -> LaserScan:
         range_max=f32(scan.range_max),
         stamp_ns=scan.stamp_ns,
     )
-
-
-@functools.cache
-def default_typestore(ros1: bool) -> Any:
-    """ROS 1 Noetic or ROS 2 Humble message types, built once per process (building is slow)."""
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-
-    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
-    if TF_MESSAGE not in store.types:  # the ROS 1 store ships without tf2_msgs
-        store.register(
-            get_types_from_msg("geometry_msgs/TransformStamped[] transforms", TF_MESSAGE)
-        )
-    return store
 
 
 class BagRecorder:
@@ -132,7 +118,8 @@ class BagRecorder:
         self._started = False
         self.created = False
         """True once this recorder has created its bag (``discard`` only removes such a bag)."""
-        self._types = self.typestore.types
+        self.build = MessageBuilder(self.typestore, self.ros1)
+        """Builds this recorder's messages (its typestore, its ROS version)."""
         self.counts: dict[str, int] = {}
 
     def __enter__(self) -> BagRecorder:
@@ -152,6 +139,7 @@ class BagRecorder:
             self.close()
 
     def open(self) -> None:
+        # rosbags takes ~0.1 s to import; every `d3dwa` command imports transfer, few write a bag.
         from rosbags.rosbag1 import Writer as Writer1
         from rosbags.rosbag2 import StoragePlugin
         from rosbags.rosbag2 import Writer as Writer2
@@ -227,47 +215,11 @@ class BagRecorder:
 
     def message(self, msgtype: str, **fields: Any) -> Any:
         """A message instance of the recorder's typestore; ``header``s via ``self.header``."""
-        return self._msg(msgtype, **fields)
+        return self.build.message(msgtype, **fields)
 
     def header(self, stamp_ns: int, frame: str) -> Any:
         """A std_msgs/Header for this recorder's ROS version."""
-        return self._header(stamp_ns, frame)
-
-    def _msg(self, msgtype: str, **kwargs: Any) -> Any:
-        return self._types[msgtype](**kwargs)
-
-    def _header(self, stamp_ns: int, frame: str) -> Any:
-        sec, nsec = divmod(int(stamp_ns), 1_000_000_000)
-        stamp = self._msg("builtin_interfaces/msg/Time", sec=sec, nanosec=nsec)
-        if self.ros1:
-            return self._msg("std_msgs/msg/Header", seq=0, stamp=stamp, frame_id=frame)
-        return self._msg("std_msgs/msg/Header", stamp=stamp, frame_id=frame)
-
-    def _vector3(self, x: float = 0.0, y: float = 0.0, z: float = 0.0) -> Any:
-        return self._msg("geometry_msgs/msg/Vector3", x=float(x), y=float(y), z=float(z))
-
-    def _quaternion(self, yaw: float) -> Any:
-        x, y, z, w = quaternion_from_yaw(yaw)
-        return self._msg("geometry_msgs/msg/Quaternion", x=x, y=y, z=z, w=w)
-
-    def _pose(self, x: float, y: float, yaw: float) -> Any:
-        position = self._msg("geometry_msgs/msg/Point", x=float(x), y=float(y), z=0.0)
-        return self._msg(
-            "geometry_msgs/msg/Pose", position=position, orientation=self._quaternion(yaw)
-        )
-
-    def _transform(self, t_ns: int, parent: str, child: str, xyz: tuple, yaw: float) -> Any:
-        tf = self._msg(
-            "geometry_msgs/msg/Transform",
-            translation=self._vector3(*xyz),
-            rotation=self._quaternion(yaw),
-        )
-        return self._msg(
-            "geometry_msgs/msg/TransformStamped",
-            header=self._header(t_ns, parent),
-            child_frame_id=child,
-            transform=tf,
-        )
+        return self.build.header(stamp_ns, frame)
 
     def _start(self, t_ns: int) -> None:
         if self._started:
@@ -275,40 +227,23 @@ class BagRecorder:
         self._started = True
         f = self.frames
         static = [
-            self._transform(t_ns, f.base, f.lidar, self.lidar_mount, 0.0),
-            self._transform(t_ns, f.base, f.imu, self.imu_mount, 0.0),
+            self.build.transform(t_ns, f.base, f.lidar, self.lidar_mount, 0.0),
+            self.build.transform(t_ns, f.base, f.imu, self.imu_mount, 0.0),
         ]
-        self._write(
-            self.topics.tf_static, TF_MESSAGE, t_ns, self._msg(TF_MESSAGE, transforms=static)
-        )
+        self._write(self.topics.tf_static, TF_MESSAGE, t_ns, self.build.tf_message(static))
         if self.goal is not None:
             self.write_goal(t_ns, self.goal)
 
     def write_goal(self, t_ns: int, goal: tuple[float, float] | np.ndarray) -> None:
         """geometry_msgs/PoseStamped at (x, y) m in the odometry frame."""
         x, y = (float(v) for v in np.asarray(goal, dtype=np.float64).reshape(2))
-        msg = self._msg(
-            POSE_STAMPED, header=self._header(t_ns, self.frames.odom), pose=self._pose(x, y, 0.0)
-        )
+        msg = self.build.goal(t_ns, self.frames.odom, x, y)
         self._write(self.topics.goal, POSE_STAMPED, t_ns, msg)
 
     def write_scan(self, t_ns: int, scan: LaserScan) -> None:
         """sensor_msgs/LaserScan in the lidar frame (ranges rounded to float32)."""
         self._start(t_ns)
-        n = scan.ranges.size
-        msg = self._msg(
-            LASER_SCAN,
-            header=self._header(scan.stamp_ns or t_ns, self.frames.lidar),
-            angle_min=float(scan.angle_min),
-            angle_max=float(scan.angle_min + (n - 1) * scan.angle_increment),
-            angle_increment=float(scan.angle_increment),
-            time_increment=0.0,
-            scan_time=0.0,
-            range_min=float(scan.range_min),
-            range_max=float(scan.range_max),
-            ranges=scan.ranges.astype(np.float32),
-            intensities=np.zeros(0, dtype=np.float32),
-        )
+        msg = self.build.scan(scan.stamp_ns or t_ns, self.frames.lidar, scan)
         self._write(self.topics.scan, LASER_SCAN, t_ns, msg)
 
     def write_odometry(
@@ -325,22 +260,8 @@ class BagRecorder:
         stamp_ns: header stamp if it differs from the receive time t_ns (latency, clock tests).
         """
         self._start(t_ns)
-        x, y, yaw = (float(v) for v in pose)
-        v, w = (float(u) for u in twist)
-        cov = np.zeros(36)
-        msg = self._msg(
-            ODOMETRY,
-            header=self._header(t_ns if stamp_ns is None else stamp_ns, self.frames.odom),
-            child_frame_id=self.frames.base,
-            pose=self._msg(
-                "geometry_msgs/msg/PoseWithCovariance", pose=self._pose(x, y, yaw), covariance=cov
-            ),
-            twist=self._msg(
-                "geometry_msgs/msg/TwistWithCovariance",
-                twist=self._msg(TWIST, linear=self._vector3(v), angular=self._vector3(z=w)),
-                covariance=cov.copy(),
-            ),
-        )
+        stamp = t_ns if stamp_ns is None else stamp_ns
+        msg = self.build.odometry(stamp, self.frames.odom, self.frames.base, pose, twist)
         topic = self.topics.wheel_odometry if wheel else self.topics.odometry
         self._write(topic, ODOMETRY, t_ns, msg)
 
@@ -348,32 +269,21 @@ class BagRecorder:
         """tf2_msgs/TFMessage with odom -> base_link at pose (x, y, yaw)."""
         self._start(t_ns)
         x, y, yaw = (float(v) for v in pose)
-        tf = self._transform(t_ns, self.frames.odom, self.frames.base, (x, y, 0.0), yaw)
-        self._write(self.topics.tf, TF_MESSAGE, t_ns, self._msg(TF_MESSAGE, transforms=[tf]))
+        tf = self.build.transform(t_ns, self.frames.odom, self.frames.base, (x, y, 0.0), yaw)
+        self._write(self.topics.tf, TF_MESSAGE, t_ns, self.build.tf_message([tf]))
 
     def write_imu(self, t_ns: int, gyro_w: float, *, stamp_ns: int | None = None) -> None:
         """sensor_msgs/Imu with angular_velocity.z = gyro_w, rad/s; no orientation estimate."""
         self._start(t_ns)
-        no_orientation = np.zeros(9)
-        no_orientation[0] = -1.0  # sensor_msgs/Imu convention: orientation not provided
-        msg = self._msg(
-            IMU,
-            header=self._header(t_ns if stamp_ns is None else stamp_ns, self.frames.imu),
-            orientation=self._msg("geometry_msgs/msg/Quaternion", x=0.0, y=0.0, z=0.0, w=1.0),
-            orientation_covariance=no_orientation,
-            angular_velocity=self._vector3(z=gyro_w),
-            angular_velocity_covariance=np.zeros(9),
-            linear_acceleration=self._vector3(),
-            linear_acceleration_covariance=np.zeros(9),
-        )
+        stamp = t_ns if stamp_ns is None else stamp_ns
+        msg = self.build.imu(stamp, self.frames.imu, gyro_w)
         self._write(self.topics.imu, IMU, t_ns, msg)
 
     def write_cmd(self, t_ns: int, cmd: tuple | np.ndarray) -> None:
         """geometry_msgs/Twist (v m/s, w rad/s)."""
         self._start(t_ns)
         v, w = (float(u) for u in cmd)
-        msg = self._msg(TWIST, linear=self._vector3(v), angular=self._vector3(z=w))
-        self._write(self.topics.cmd_vel, TWIST, t_ns, msg)
+        self._write(self.topics.cmd_vel, TWIST, t_ns, self.build.twist(v, w))
 
     def write_params(self, t_ns: int, params: tuple | np.ndarray) -> None:
         """std_msgs/Float64MultiArray [wp, wc, ws, tau, action_index]."""
@@ -383,11 +293,7 @@ class BagRecorder:
             raise BagFormatError(
                 f"{self.path}: planner params need [wp, wc, ws, tau, action_index], got {data.size} values"
             )
-        dim = self._msg(
-            "std_msgs/msg/MultiArrayDimension", label="wp_wc_ws_tau_action", size=5, stride=5
-        )
-        layout = self._msg("std_msgs/msg/MultiArrayLayout", dim=[dim], data_offset=0)
-        msg = self._msg(FLOAT64_ARRAY, layout=layout, data=data)
+        msg = self.build.planner_params(data)
         self._write(self.topics.planner_params, FLOAT64_ARRAY, t_ns, msg)
 
     def write_step(
