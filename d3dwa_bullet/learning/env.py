@@ -13,10 +13,10 @@ Reward R1 + R2 + R3 (``reward.reward``) on the ground-truth goal and nearest-obs
 distances the Episode measures, scaled by ``reward_scale`` (0.01 for the D3QN, 1 for
 the tabular baseline). Goal and collision *terminate*; the time limit *truncates*.
 
-Every episode draws its task from the env's seeded generator: a world from ``worlds``
-(names or files) or, with probability ``generator_prob``, a fresh layout from one of the
-``generators`` styles, and a noise profile from ``noise`` (weights ``noise_probs``),
-sampled per episode with ``randomization.episode_noise``. The draw is::
+Every episode draws its task from the env's seeded generator (``tasks.TaskSampler``): a
+world from ``worlds`` (names or files) or, with probability ``generator_prob``, a fresh
+layout from one of the ``generators`` styles, and a noise profile from ``noise`` (weights
+``noise_probs``), sampled per episode with ``randomization.episode_noise``. The draw is::
 
     episode_seed = env.np_random.integers(2**63 - 1)
     task, layout, noise, start = SeedSequence(episode_seed).spawn(4)
@@ -25,8 +25,7 @@ With ``route_start_prob`` > 0 an episode on one of ``worlds`` may start part-way
 the world's route (``route_start``, a training aid; info["route_start"] says so). So
 ``reset(seed=s)`` always gives the same episode, bit for bit (DIRECT mode). Worlds of
 the evaluation-only groups (``unseen``: US1, H1-H3; ``real``: R1-R3) are refused with
-ConfigError unless ``allow_eval_worlds=True``: training never sees them. R-style layouts
-from the generators are training material; the R1-R3 files themselves are not.
+ConfigError unless ``allow_eval_worlds=True``: training never sees them.
 
 ``reset(options=...)`` can pin the episode: ``{"world": name_or_World, "noise": profile,
 "episode_seed": int}`` (used by the greedy evaluation during training).
@@ -43,36 +42,12 @@ import numpy as np
 from gymnasium import spaces
 
 from d3dwa_bullet.episode import Episode, EpisodeConfig, EpisodeResult
-from d3dwa_bullet.errors import ConfigError, D3DWAError
+from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.learning.reward import reward
+from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, TaskSampler
 from d3dwa_bullet.params import RewardParams
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
-from d3dwa_bullet.world.model import World, load_world
-
-#: World groups that are for evaluation only and never trained on.
-EVAL_ONLY_GROUPS = ("unseen", "real")
-#: The training worlds of the paper.
-TRAIN_WORLDS = ("TS1", "TS2", "TS3", "TS4")
-#: Fresh layouts tried per episode before a generator style is given up (each is a
-#: different layout seed; a style fails a seed only when no passable layout was found).
-GENERATOR_RETRIES = 5
-
-
-def check_training_world(world: World, where: str = "worlds") -> World:
-    """Return ``world`` if it may be trained on, else ConfigError (evaluation-only group)."""
-    if world.group in EVAL_ONLY_GROUPS:
-        raise ConfigError(
-            f"{where}: world {world.name!r} ({world.source}) is in the evaluation-only group "
-            f"{world.group!r}; training and its evaluation use training worlds only "
-            f"(e.g. {', '.join(TRAIN_WORLDS)} or generated layouts such as R2-style)"
-        )
-    return world
-
-
-def resolve_world(spec: str | World, allow_eval_worlds: bool, where: str = "worlds") -> World:
-    """A World from a name, a file path or a World, checked for training unless allowed."""
-    world = spec if isinstance(spec, World) else load_world(spec)
-    return world if allow_eval_worlds else check_training_world(world, where)
+from d3dwa_bullet.world.model import World
 
 
 def observation_space(dim: int = 12) -> spaces.Box:
@@ -81,17 +56,6 @@ def observation_space(dim: int = 12) -> spaces.Box:
     low[1:4] = -1.0
     high = np.ones(dim, dtype=np.float32)
     return spaces.Box(low, high, dtype=np.float32)
-
-
-def _probabilities(weights: Sequence[float], n: int, what: str) -> np.ndarray:
-    if not weights:
-        return np.full(n, 1.0 / n)
-    p = np.asarray(weights, dtype=np.float64)
-    if p.shape != (n,) or not np.all(np.isfinite(p)) or (p < 0).any() or p.sum() <= 0:
-        raise ConfigError(
-            f"{what} must be {n} non-negative numbers with a positive sum, got {list(weights)!r}"
-        )
-    return p / p.sum()
 
 
 class D3DWAEnv(gym.Env):
@@ -129,64 +93,17 @@ class D3DWAEnv(gym.Env):
         route_start_span: float = 0.8,
     ) -> None:
         super().__init__()
-        if not 0.0 <= route_start_prob <= 1.0:
-            raise ConfigError(f"route_start_prob must be in [0, 1], got {route_start_prob!r}")
-        if not 0.0 < route_start_span < 1.0:
-            raise ConfigError(f"route_start_span must be in (0, 1), got {route_start_span!r}")
-        self.route_start_prob = float(route_start_prob)
-        self.route_start_span = float(route_start_span)
-        self._routes: dict[int, np.ndarray] = {}
-        self.allow_eval_worlds = bool(allow_eval_worlds)
-        self.worlds = tuple(resolve_world(w, self.allow_eval_worlds) for w in worlds)
-        self.generators = tuple(str(g) for g in generators)
-        if self.route_start_prob > 0:  # a world without a route fails now, not mid-training
-            from d3dwa_bullet.world.route_start import ROUTE_START_CLEARANCE, route_polyline
-
-            for i, world in enumerate(self.worlds):
-                try:
-                    self._routes[i] = route_polyline(world)
-                except D3DWAError as err:
-                    raise ConfigError(
-                        f"route_start_prob > 0 needs a route keeping {ROUTE_START_CLEARANCE} m "
-                        f"from obstacles in every world: {err}"
-                    ) from err
-        if self.generators:
-            from d3dwa_bullet.world.generator import load_generator
-
-            for style in self.generators:
-                load_generator(style)  # unknown style -> UnknownNameError now, not mid-training
-        n_tasks = len(self.worlds) + len(self.generators)
-        p_gen = (
-            len(self.generators) / max(n_tasks, 1)
-            if generator_prob is None
-            else float(generator_prob)
+        self.sampler = TaskSampler(
+            worlds=worlds,
+            generators=generators,
+            generator_prob=generator_prob,
+            noise=noise,
+            noise_probs=noise_probs,
+            allow_eval_worlds=allow_eval_worlds,
+            route_start_prob=route_start_prob,
+            route_start_span=route_start_span,
         )
-        if not 0.0 <= p_gen <= 1.0:
-            raise ConfigError(f"generator_prob must be in [0, 1], got {generator_prob!r}")
-        if not self.worlds and not self.generators:
-            raise ConfigError("the env needs at least one world or generator style to sample")
-        if p_gen > 0 and not self.generators:
-            raise ConfigError(f"generator_prob = {p_gen} but no generator styles are given")
-        if not self.worlds:
-            p_gen = 1.0
-        elif not self.generators:
-            p_gen = 0.0
-        self.generator_prob = p_gen
-        self.tasks: tuple[str, ...] = tuple(w.name for w in self.worlds) + self.generators
-        """Task names: one per world, then one per generator style."""
-        base = [(1.0 - p_gen) / len(self.worlds)] * len(self.worlds) if self.worlds else []
-        base += [p_gen / len(self.generators)] * len(self.generators) if self.generators else []
-        self._task_base = np.asarray(base, dtype=np.float64)
-        self._task_weights = np.ones(len(self.tasks))
-
-        self.noise_names = (noise,) if isinstance(noise, str) else tuple(noise)
-        if not self.noise_names:
-            raise ConfigError("noise: give at least one profile name ('none' for noise-free)")
-        self.noise_p = _probabilities(noise_probs, len(self.noise_names), "noise_probs")
-        self._profiles: dict[str, Any] = {}
-        for name in self.noise_names:
-            self._profile(name)  # unknown profile -> ProfileError now
-
+        """Draws each episode's world, noise profile and start (``tasks.TaskSampler``)."""
         if actions is None:
             actions = ACTIONS_WEIGHTS_ONLY if weights_only else ACTIONS_FULL
         self.actions = actions
@@ -209,90 +126,19 @@ class D3DWAEnv(gym.Env):
     # --- sampling -------------------------------------------------------------------------
 
     @property
+    def tasks(self) -> tuple[str, ...]:
+        """Task names: one per world, then one per generator style."""
+        return self.sampler.tasks
+
+    @property
     def task_probabilities(self) -> np.ndarray:
         """Probability of each task in ``tasks`` for the next episode."""
-        p = self._task_base * self._task_weights
-        return p / p.sum()
+        return self.sampler.task_probabilities
 
     def set_task_weights(self, weights: Sequence[float] | Mapping[str, float]) -> None:
-        """Multiply each task's base probability by a weight (a curriculum's hook).
-
-        weights: one number per task in ``tasks`` order, or a mapping task -> weight
-        (missing tasks keep weight 1). Must leave some task with a positive probability.
-        """
-        if isinstance(weights, Mapping):
-            unknown = sorted(set(weights) - set(self.tasks))
-            if unknown:
-                raise ConfigError(
-                    f"set_task_weights: unknown task(s) {unknown}; tasks {self.tasks}"
-                )
-            w = np.array([float(weights.get(t, 1.0)) for t in self.tasks])
-        else:
-            w = np.asarray(weights, dtype=np.float64)
-        if w.shape != (len(self.tasks),) or not np.all(np.isfinite(w)) or (w < 0).any():
-            raise ConfigError(
-                f"set_task_weights: need {len(self.tasks)} finite weights >= 0, got {weights!r}"
-            )
-        if (self._task_base * w).sum() <= 0:
-            raise ConfigError("set_task_weights: every task would have probability 0")
-        self._task_weights = w
-
-    def _profile(self, name: str) -> Any:
-        if name == "none":
-            return None
-        if name not in self._profiles:
-            from randomization import load_profile
-
-            self._profiles[name] = load_profile(name)
-        return self._profiles[name]
-
-    def _noise(self, name: str, seed: int) -> Any:
-        profile = self._profile(name)
-        if profile is None:
-            return None
-        from randomization import episode_noise
-
-        return episode_noise(profile, seed)
-
-    def _draw(
-        self, episode_seed: int, options: Mapping[str, Any]
-    ) -> tuple[str, World, str, int, bool]:
-        """(task, world, noise profile, noise seed, route start) of an episode, from its seed
-        alone. The world is a route-start copy (last item True) with probability
-        ``route_start_prob`` when it is one of ``worlds``."""
-        task_seq, layout_seq, noise_seq, start_seq = np.random.SeedSequence(episode_seed).spawn(4)
-        rng = np.random.default_rng(task_seq)
-        # draw both choices every time so pinning one option leaves the other's draw unchanged
-        task_i = int(rng.choice(len(self.tasks), p=self.task_probabilities))
-        noise_i = int(rng.choice(len(self.noise_names), p=self.noise_p))
-        noise_name = str(options.get("noise", self.noise_names[noise_i]))
-        noise_seed = int(noise_seq.generate_state(1, np.uint32)[0])
-        if "world" in options:
-            world = resolve_world(options["world"], self.allow_eval_worlds, "reset(options)")
-            return world.name, world, noise_name, noise_seed, False
-        task = self.tasks[task_i]
-        if task_i < len(self.worlds):
-            if self.route_start_prob > 0:
-                start_rng = np.random.default_rng(start_seq)
-                if start_rng.random() < self.route_start_prob:
-                    return task, self._route_start(task_i, start_rng), noise_name, noise_seed, True
-            return task, self.worlds[task_i], noise_name, noise_seed, False
-        from d3dwa_bullet.world.generator import generate_world
-
-        layout_rng = np.random.default_rng(layout_seq)
-        error: D3DWAError | None = None
-        for _ in range(GENERATOR_RETRIES):
-            try:
-                return (
-                    task,
-                    generate_world(task, int(layout_rng.integers(2**31))),
-                    noise_name,
-                    noise_seed,
-                    False,
-                )
-            except ConfigError as err:  # no passable layout for that seed: draw another
-                error = err
-        raise ConfigError(f"generator {task!r}: {error}") from error
+        """Multiply each task's base probability by a weight (a curriculum's hook); see
+        ``TaskSampler.set_task_weights``."""
+        self.sampler.set_task_weights(weights)
 
     # --- gymnasium API --------------------------------------------------------------------
 
@@ -306,14 +152,16 @@ class D3DWAEnv(gym.Env):
             episode_seed = int(options["episode_seed"])
         else:
             episode_seed = int(self.np_random.integers(2**63 - 1))
-        task, world, noise_name, noise_seed, route_started = self._draw(episode_seed, options)
+        task, world, noise_name, noise_seed, route_started = self.sampler.draw(
+            episode_seed, options
+        )
         self.episode_seed, self.task, self.world, self.noise_name, self.route_started = (
             episode_seed, task, world, noise_name, route_started,
         )  # fmt: skip
         self.episode = Episode(
             world,
             seed=noise_seed,
-            noise=self._noise(noise_name, noise_seed),
+            noise=self.sampler.noise(noise_name, noise_seed),
             noise_name=noise_name,
             config=self.episode_config,
         )
@@ -386,12 +234,6 @@ class D3DWAEnv(gym.Env):
             "goal_distance": ep.goal_distance,
             "obstacle_distance": ep.obstacle_distance,
         }
-
-    def _route_start(self, world_index: int, rng: np.random.Generator) -> World:
-        from d3dwa_bullet.world.route_start import route_start
-
-        world = self.worlds[world_index]
-        return route_start(world, self._routes[world_index], rng, self.route_start_span)
 
     def _close_episode(self) -> None:
         if self.episode is not None:

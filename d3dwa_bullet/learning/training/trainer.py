@@ -66,7 +66,8 @@ from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
 from d3dwa_bullet.learning.agents.policy import greedy_policy
 from d3dwa_bullet.learning.agents.replay import Transition
 from d3dwa_bullet.learning.agents.training_state import restore_training_state, training_state_files
-from d3dwa_bullet.learning.env import TRAIN_WORLDS, D3DWAEnv, resolve_world
+from d3dwa_bullet.learning.env import D3DWAEnv
+from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, resolve_world
 from d3dwa_bullet.methods import LEARNED
 from d3dwa_bullet.planning.actions import ActionSet
 
