@@ -36,6 +36,8 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any, TypeVar
 
+import cv2
+
 from d3dwa_bullet.errors import BackendError, D3DWAError
 
 RAY_CONNECT_TIMEOUT_S = 5.0
@@ -59,8 +61,6 @@ def one_core_per_worker() -> None:
     """In a worker that shares the machine with others, keep OpenCV's distance transform
     (the planner's) on one thread: one process per core already fills the cores, and a
     single process (training, one episode) keeps OpenCV's default of every core."""
-    import cv2
-
     cv2.setNumThreads(1)
 
 
@@ -99,7 +99,7 @@ def run_local(fn: JobFn, jobs: Sequence[J], config: Any, workers: int) -> Iterat
 
 
 def _import_ray():
-    try:
+    try:  # optional dependency: the ray extra
         import ray
     except ImportError as err:
         raise BackendError(
@@ -143,9 +143,9 @@ def probe_address(address: str, timeout: float = RAY_CONNECT_TIMEOUT_S) -> None:
             f"Ray address {address!r} does not answer ({err.strerror or err}); is the cluster "
             "running (`ray start --head --port PORT`) and the port reachable?"
         ) from err
-    try:
+    try:  # optional dependency: the ray extra declares grpcio
         import grpc
-    except ImportError:  # the ray extra declares grpcio; without it, the TCP check above stands alone
+    except ImportError:  # without it, the TCP check above stands alone
         return
     target = f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
     channel = grpc.insecure_channel(target)

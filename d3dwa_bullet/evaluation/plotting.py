@@ -15,15 +15,15 @@ from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Circle, Patch, Polygon  # noqa: E402
 
-from d3dwa_bullet.world.model import Cylinder, World  # noqa: E402
+from d3dwa_bullet.io import atomic_savefig  # noqa: E402
+from d3dwa_bullet.methods import LABELS, METHODS  # noqa: E402
+from d3dwa_bullet.world.model import Cylinder, World, obstacle_outline  # noqa: E402
 
 OUTCOME_MARK = {"goal": "reached", "collision": "C: collision", "timeout": "T: timeout"}
 
 
 def draw_world(ax: plt.Axes, world: World) -> None:
     """Obstacles (grey), start (black triangle) and goal (red star and tolerance) on ax."""
-    from d3dwa_bullet.sim.simulator import obstacle_outline
-
     for ob in world.obstacles:
         if isinstance(ob, Cylinder):
             ax.add_patch(Circle(ob.center, ob.radius, color="0.55", zorder=1))
@@ -118,8 +118,6 @@ def trajectory_figure(
 
 def method_colours(methods: Sequence[str]) -> dict[str, tuple]:
     """A stable colour per method name (the order of d3dwa_bullet.methods.METHODS)."""
-    from d3dwa_bullet.methods import METHODS
-
     cmap = plt.get_cmap("tab10")
     return {
         m: cmap(METHODS.index(m) % 10 if m in METHODS else i % 10) for i, m in enumerate(methods)
@@ -129,11 +127,10 @@ def method_colours(methods: Sequence[str]) -> dict[str, tuple]:
 def _save(fig: plt.Figure, path: str | os.PathLike[str]) -> Path:
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.stem + ".tmp.png")
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    os.replace(tmp, out)
-    return out
+    try:
+        return atomic_savefig(fig, out, dpi=110, bbox_inches="tight")
+    finally:
+        plt.close(fig)
 
 
 def sweep_figure(
@@ -151,8 +148,6 @@ def sweep_figure(
     One column per layout group; lines over numeric levels, grouped bars over profiles.
     Methods are dodged sideways so their error bars do not hide each other.
     """
-    from d3dwa_bullet.methods import LABELS
-
     layouts = list(series)
     methods = list(dict.fromkeys(m for per in series.values() for m in per))
     colours = method_colours(methods)

@@ -15,7 +15,6 @@ figure title; the page is written atomically.
 from __future__ import annotations
 
 import os
-import shutil
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,17 +22,26 @@ from typing import Any
 
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
-from d3dwa_bullet.evaluation.jobs import (
+from d3dwa_bullet.evaluation.jobs import world_figures
+from d3dwa_bullet.evaluation.results import (
     check_results_dir,
     completion,
     read_meta,
     read_results,
-    world_figures,
-    write_text_atomic,
+    row_key,
+)
+from d3dwa_bullet.evaluation.sweep import (
+    AXES,
+    SweepSettings,
+    read_sweep,
+    sweep_figures,
+    sweep_markdown,
 )
 from d3dwa_bullet.evaluation.tables import paper_table, success_table
+from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text
 from d3dwa_bullet.methods import LABELS
 from d3dwa_bullet.resources import policies_dir as shipped_policies_dir
+from d3dwa_bullet.world.registry import load_world
 
 LEARNING_CURVE = "learning_curve.png"
 
@@ -85,9 +93,7 @@ def open_results(out: str | os.PathLike[str]) -> tuple[Path, dict[str, Any], lis
     if "jobs" not in meta or "settings" not in meta:
         raise ResultsError(f"{out / 'meta.json'}: missing 'jobs' or 'settings'")
     keys = {tuple(k) for k in meta["jobs"]}
-    rows = [
-        r for r in read_results(out) if (r["world"], r["method"], r["seed"], r["noise"]) in keys
-    ]
+    rows = [r for r in read_results(out) if row_key(r) in keys]
     return out, meta, rows
 
 
@@ -121,7 +127,7 @@ def write_table_page(
     dest.parent.mkdir(parents=True, exist_ok=True)
     page = eval_markdown(rows, methods, worlds, seeds, noise, title)
     page += f"\nFrom `{out / 'results.csv'}` ({len(rows)} episodes), d3dwa-bullet {__version__}.\n"
-    write_text_atomic(dest, page)
+    atomic_write_text(dest, page)
     return dest
 
 
@@ -134,9 +140,7 @@ def learning_curves(out: Path, policies_dir: Path | None = None) -> list[tuple[s
         name = src.parent.name
         dest = out / "figures" / f"learning_curve_{name}.png"
         dest.parent.mkdir(parents=True, exist_ok=True)
-        tmp = dest.with_name(dest.name + ".tmp")
-        shutil.copyfile(src, tmp)
-        os.replace(tmp, dest)
+        atomic_write_bytes(dest, src.read_bytes())
         links.append((name, dest.relative_to(out).as_posix()))
     return links
 
@@ -156,8 +160,6 @@ def _status(done: int, expected: int, command: str) -> str:
 
 
 def _eval_body(out: Path, meta: dict[str, Any], rows: list[dict], partial: bool) -> str:
-    from d3dwa_bullet.world.model import load_world
-
     methods, worlds, seeds, noise = eval_settings(meta)
     note = " (PARTIAL)" if partial else ""
     body = eval_markdown(rows, methods, worlds, seeds, noise, title=f"Tables{note}")
@@ -193,17 +195,9 @@ def _eval_body(out: Path, meta: dict[str, Any], rows: list[dict], partial: bool)
 
 
 def _sweep_body(out: Path, meta: dict[str, Any], partial: bool) -> str:
-    from d3dwa_bullet.evaluation.sweep import (
-        AXES,
-        SweepSettings,
-        read_sweep,
-        sweep_figures,
-        sweep_markdown,
-    )
-
     settings = SweepSettings.from_dict(meta["settings"])
     keys = {tuple(k) for k in meta["jobs"]}
-    rows = [r for r in read_sweep(out) if (r["world"], r["method"], r["seed"], r["noise"]) in keys]
+    rows = [r for r in read_sweep(out) if row_key(r) in keys]
     # Figures newer than results.csv were drawn from these very rows: keep them.
     names = [f"sweep_{a}.png" for a in settings.axes] + ["sweep_profiles.png"] * bool(
         settings.profiles
@@ -284,5 +278,5 @@ def write_report(
                 f"![{name} learning curve]({link})\n\n"
             )
     path = out / "report.md"
-    write_text_atomic(path, "".join(page))
+    atomic_write_text(path, "".join(page))
     return Report(path, kind, done, expected)

@@ -1,10 +1,9 @@
 """Noise sweep: how each method degrades as one noise source grows, and under whole profiles.
 
 Worlds: the shipped real-style worlds R1-R3 and, per generator style (R1-style, R2-style,
-R3-style), ``layouts`` freshly generated layouts with seeds ``UNSEEN_LAYOUT_SEED_BASE + i``.
-Training draws generator seeds with ``integers(2**31)``, i.e. from [0, 2^31)
-(``d3dwa_bullet/env.py``), so layouts from 2^31 upward are never seen in training; keep
-training below that bound.
+R3-style), ``layouts`` freshly generated layouts with seeds ``UNSEEN_LAYOUT_SEED_BASE + i``
+(2^31, 2^31 + 1, ...; :mod:`d3dwa_bullet.world.generator`). Training draws generator seeds
+below that bound, so these layouts are never seen in training.
 
 Noise: one axis at a time, from 0 to a harsh value in ``levels`` equal steps, every other
 model off; then the named profiles (none, paper, real, harsh), sampled per episode as in
@@ -28,8 +27,9 @@ the ``none`` profile. Other rows have noise ``<axis>=<level>`` (e.g. ``slip=0.2`
 profile name, axis the axis name or ``profile``, and level the axis value (empty for
 profiles).
 
-Statistics: success rate with the Wilson score interval (95 %), time to goal over the
-successful episodes with the 95 % Student t-interval of the mean.
+Statistics (:mod:`d3dwa_bullet.evaluation.stats`): success rate with the Wilson score
+interval (95 %), time to goal over the successful episodes with the 95 % Student t-interval
+of the mean.
 """
 
 from __future__ import annotations
@@ -41,25 +41,21 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, UnknownNameError
-from d3dwa_bullet.evaluation.jobs import (
-    CSV_FIELDS,
-    Job,
-    completion,
-    evaluate,
-    noise_config_json,
-    read_results,
-    write_text_atomic,
-)
-from d3dwa_bullet.methods import LABELS, check_method
-from d3dwa_bullet.sim.noise import LidarNoiseConfig, NoiseConfig, OdometryConfig, SlipConfig
-from d3dwa_bullet.world.model import World, load_world
+from d3dwa_bullet.evaluation.jobs import Job, evaluate, noise_config_json
+from d3dwa_bullet.evaluation.plotting import sweep_figure
+from d3dwa_bullet.evaluation.results import CSV_FIELDS, completion, read_results, row_key
+from d3dwa_bullet.evaluation.stats import Series, group_series
+from d3dwa_bullet.evaluation.tables import series_table
+from d3dwa_bullet.io import atomic_write_text
+from d3dwa_bullet.methods import check_method, make_controller
+from d3dwa_bullet.sim.noise_config import LidarNoiseConfig, NoiseConfig, OdometryConfig, SlipConfig
+from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
+from d3dwa_bullet.world.model import World
+from d3dwa_bullet.world.registry import load_world
+from randomization import load_profile
 
-UNSEEN_LAYOUT_SEED_BASE = 2**31
-"""First generator seed of the sweep's unseen layouts (training draws from [0, 2^31))."""
 SHIPPED_WORLDS = ("R1", "R2", "R3")
 STYLES = ("R1-style", "R2-style", "R3-style")
 PROFILES = ("none", "paper", "real", "harsh")
@@ -69,9 +65,6 @@ SWEEP_FIELDS = (*CSV_FIELDS[:4], "axis", "level", "layout", *CSV_FIELDS[4:])
 LAYOUT_GROUPS = ("shipped", "generated")
 DROPOUT_KINDS = (0.1, 0.7, 0.2)
 """(NaN, +inf, 0.0) proportions of dropped beams, as in the ``real`` profile."""
-CONFIDENCE = 0.95
-Z95 = 1.959963984540054
-"""Standard normal quantile of 0.975."""
 
 
 @dataclass(frozen=True)
@@ -186,8 +179,6 @@ class SweepSettings:
         for a in self.axes:
             if a not in AXES:
                 raise UnknownNameError(f"unknown noise axis {a!r}: choose from {', '.join(AXES)}")
-        from randomization import load_profile
-
         for p in self.profiles:
             load_profile(p)  # ProfileError for an unknown name or a bad file
 
@@ -221,8 +212,6 @@ def unseen_layout_seeds(layouts: int) -> list[int]:
 
 def sweep_worlds(settings: SweepSettings) -> list[tuple[World, str]]:
     """(world, "shipped" | "generated") pairs, with the time-limit override applied."""
-    from d3dwa_bullet.world.generator import generate_world
-
     pairs = [(load_world(w), "shipped") for w in settings.worlds]
     pairs += [
         (generate_world(style, seed), "generated")
@@ -255,64 +244,6 @@ def read_sweep(out: str | Path) -> list[dict[str, Any]]:
     return rows
 
 
-# --- statistics ------------------------------------------------------------------------
-
-
-def wilson_interval(k: int, n: int, z: float = Z95) -> tuple[float, float]:
-    """Wilson score interval of a success probability from k successes in n trials."""
-    if n == 0:
-        return (math.nan, math.nan)
-    p = k / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
-    # The interval contains p in exact arithmetic; at k = 0 or k = n rounding can put a bound
-    # a few ulp on the wrong side of it (and make an error bar negative).
-    return (min(p, max(0.0, centre - half)), max(p, min(1.0, centre + half)))
-
-
-def t_interval(
-    values: Sequence[float], confidence: float = CONFIDENCE
-) -> tuple[float, float, float]:
-    """(mean, low, high): the Student t confidence interval of the mean (nan bounds if n < 2)."""
-    x = np.asarray(values, dtype=np.float64)
-    if x.size == 0:
-        return (math.nan, math.nan, math.nan)
-    mean = float(x.mean())
-    if x.size < 2:
-        return (mean, math.nan, math.nan)
-    from scipy.stats import t
-
-    half = float(t.ppf(0.5 + confidence / 2, x.size - 1) * x.std(ddof=1) / math.sqrt(x.size))
-    return (mean, mean - half, mean + half)
-
-
-@dataclass(frozen=True)
-class CellStats:
-    """Success and time statistics of one group of episodes."""
-
-    n: int
-    successes: int
-    rate: float
-    rate_lo: float
-    rate_hi: float
-    time_mean: float
-    """Mean time to goal over the successful episodes, s (nan if none)."""
-    time_lo: float
-    time_hi: float
-
-    @classmethod
-    def of(cls, rows: Sequence[Mapping[str, Any]]) -> CellStats:
-        times = [r["time_s"] for r in rows if r["outcome"] == "goal"]
-        n, k = len(rows), len(times)
-        lo, hi = wilson_interval(k, n)
-        mean, tlo, thi = t_interval(times)
-        return cls(n, k, k / n if n else math.nan, lo, hi, mean, tlo, thi)
-
-
-Series = dict[str, dict[str, list[tuple[Any, CellStats]]]]
-"""layout group -> method -> [(x, stats)] (x a level or a profile name)."""
-
-
 def axis_series(rows: Sequence[Mapping[str, Any]], axis: str, methods: Sequence[str]) -> Series:
     """Stats per layout group, method and level of one axis; level 0 is the baseline."""
     groups: dict[tuple[str, str, float], list[Mapping[str, Any]]] = defaultdict(list)
@@ -321,7 +252,7 @@ def axis_series(rows: Sequence[Mapping[str, Any]], axis: str, methods: Sequence[
             groups[(r["layout"], r["method"], 0.0)].append(r)
         elif r["axis"] == axis:
             groups[(r["layout"], r["method"], r["level"])].append(r)
-    return _series(groups, methods)
+    return group_series(groups, LAYOUT_GROUPS, methods)
 
 
 def profile_series(
@@ -334,23 +265,7 @@ def profile_series(
         if name in profiles:
             groups[(r["layout"], r["method"], name)].append(r)
     order = {p: i for i, p in enumerate(profiles)}
-    return _series(groups, methods, key=lambda x: order[x])
-
-
-def _series(groups, methods, key=None) -> Series:
-    out: Series = {}
-    for layout in LAYOUT_GROUPS:
-        per_method = {}
-        for m in methods:
-            xs = sorted((x for (g, mm, x) in groups if g == layout and mm == m), key=key)
-            if xs:
-                per_method[m] = [(x, CellStats.of(groups[(layout, m, x)])) for x in xs]
-        if per_method:
-            out[layout] = per_method
-    return out
-
-
-# --- outputs ---------------------------------------------------------------------------
+    return group_series(groups, LAYOUT_GROUPS, methods, key=lambda x: order[x])
 
 
 def layout_titles(settings: SweepSettings) -> dict[str, str]:
@@ -373,8 +288,6 @@ def sweep_figures(
     rows: Sequence[Mapping[str, Any]], settings: SweepSettings, fig_dir: Path, partial: bool = False
 ) -> list[Path]:
     """figures/sweep_<axis>.png per axis and figures/sweep_profiles.png."""
-    from d3dwa_bullet.evaluation.plotting import sweep_figure
-
     note = " (PARTIAL: sweep incomplete)" if partial else ""
     titles = layout_titles(settings)
     paths = []
@@ -405,28 +318,6 @@ def sweep_figures(
     return paths
 
 
-def _cell(s: CellStats) -> str:
-    text = f"{s.successes}/{s.n}"
-    if s.successes:
-        text += f", {s.time_mean:.1f} s"
-        if math.isfinite(s.time_lo):
-            text += f" ± {(s.time_hi - s.time_lo) / 2:.1f}"
-    return text
-
-
-def _series_table(series: Series, titles: Mapping[str, str], header: Sequence[str]) -> str:
-    lines = [
-        "| Method | layouts | " + " | ".join(str(h) for h in header) + " |",
-        "|---|---|" + "---:|" * len(header),
-    ]
-    for layout, per_method in series.items():
-        for m, points in per_method.items():
-            by_x = dict(points)
-            cells = [_cell(by_x[x]) if x in by_x else "" for x in header]
-            lines.append(f"| {LABELS.get(m, m)} | {layout} | " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
-
-
 def sweep_markdown(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -> str:
     """Per-axis and per-profile tables: successes/episodes, mean time to goal ± 95 % CI."""
     titles = layout_titles(settings)
@@ -438,14 +329,11 @@ def sweep_markdown(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -
         axis = AXES[name]
         levels = [0.0, *axis.levels(settings.levels)]
         parts.append(f"\n### {axis.label} (`{name}`)\n\n")
-        parts.append(_series_table(axis_series(rows, name, settings.methods), titles, levels))
+        parts.append(series_table(axis_series(rows, name, settings.methods), levels))
     if settings.profiles:
         parts.append("\n### Named profiles\n\n")
-        parts.append(
-            _series_table(
-                profile_series(rows, settings.profiles, settings.methods), titles, settings.profiles
-            )
-        )
+        series = profile_series(rows, settings.profiles, settings.methods)
+        parts.append(series_table(series, settings.profiles))
     return "".join(parts)
 
 
@@ -478,20 +366,18 @@ def run_sweep(
 ) -> tuple[list[dict[str, Any]], bool]:
     """Run (or resume) a sweep into out; returns (rows, complete). When complete, writes
     sweep.md and (with figures) figures/sweep_*.png."""
-    from d3dwa_bullet.methods import make_controller
-
     for m in settings.methods:  # fail fast on a missing policy, before any episode runs
         make_controller(m, policy)
     out = Path(out)
     jobs = sweep_jobs(settings, policy)
     meta = {"kind": "sweep", "command": command} | settings.to_dict()
     evaluate(jobs, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta)
-    rows = [r for r in read_sweep(out) if (r["world"], r["method"], r["seed"], r["noise"])
-            in {j.key for j in jobs}]  # fmt: skip
+    keys = {j.key for j in jobs}
+    rows = [r for r in read_sweep(out) if row_key(r) in keys]
     done, expected = completion(out, rows)
     complete = done == expected
     if complete and figures:
         sweep_figures(rows, settings, out / "figures")
     if complete:
-        write_text_atomic(out / "sweep.md", "# Noise sweep\n\n" + sweep_markdown(rows, settings))
+        atomic_write_text(out / "sweep.md", "# Noise sweep\n\n" + sweep_markdown(rows, settings))
     return rows, complete

@@ -5,16 +5,21 @@ averaged over the seeds that reached the goal. A cell with no success shows ``T`
 episode timed out) or ``C`` (all failures were collisions) with ``--`` for TL and PD, as in
 the paper. Where only some seeds succeeded the Time cell says how many, e.g. ``17.0 (2/3)``.
 The best value per world and metric among methods with a success is bold (ties all bold).
+
+The sweep's tables: one row per method and layout group, one column per noise level or
+profile, each cell "successes/episodes, mean time ± half-width of its 95 % t-interval".
 """
 
 from __future__ import annotations
 
+import math
 from collections import defaultdict
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
+from d3dwa_bullet.evaluation.stats import CellStats, Series
 from d3dwa_bullet.methods import LABELS
 
 METRICS = (("time_s", "Time"), ("tl_m", "TL"), ("pd_rad", "PD"))
@@ -97,4 +102,28 @@ def success_table(
                 cells.append(f"0/{len(rs)} ({n_c} C, {len(rs) - n_c} T)")
         rate = f"{100.0 * n_ok / n_all:.0f} %" if n_all else ""
         lines.append(f"| {LABELS.get(m, m)} | " + " | ".join(cells) + f" | {rate} |")
+    return "\n".join(lines) + "\n"
+
+
+def _cell(s: CellStats) -> str:
+    text = f"{s.successes}/{s.n}"
+    if s.successes:
+        text += f", {s.time_mean:.1f} s"
+        if math.isfinite(s.time_lo):
+            text += f" ± {(s.time_hi - s.time_lo) / 2:.1f}"
+    return text
+
+
+def series_table(series: Series, header: Sequence[Any]) -> str:
+    """A sweep's series as Markdown: a row per (method, layout group), a column per x of
+    header (a cell is empty where the series has no such x)."""
+    lines = [
+        "| Method | layouts | " + " | ".join(str(h) for h in header) + " |",
+        "|---|---|" + "---:|" * len(header),
+    ]
+    for layout, per_method in series.items():
+        for m, points in per_method.items():
+            by_x = dict(points)
+            cells = [_cell(by_x[x]) if x in by_x else "" for x in header]
+            lines.append(f"| {LABELS.get(m, m)} | {layout} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"

@@ -14,6 +14,7 @@ from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation import jobs as evaluation
 from d3dwa_bullet.evaluation.report import write_report, write_table_page
+from d3dwa_bullet.evaluation.results import CSV_FIELDS
 from scripts import reproduce_tables
 
 IMAGE = re.compile(r"!\[[^\]]*\]\(([^)]+)\)")
@@ -107,7 +108,7 @@ def test_sweep_report(one_second_world, tmp_path, capsys):
 
 def write_old_dir(path: Path, meta: dict | None) -> Path:
     path.mkdir()
-    (path / "results.csv").write_text(",".join(evaluation.CSV_FIELDS) + "\n")
+    (path / "results.csv").write_text(",".join(CSV_FIELDS) + "\n")
     if meta is not None:
         (path / "meta.json").write_text(json.dumps(meta))
     return path

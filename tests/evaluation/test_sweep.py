@@ -20,20 +20,19 @@ from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation import jobs as evaluation
 from d3dwa_bullet.evaluation.jobs import evaluate
+from d3dwa_bullet.evaluation.stats import t_interval, wilson_interval
 from d3dwa_bullet.evaluation.sweep import (
     AXES,
     SWEEP_FIELDS,
-    UNSEEN_LAYOUT_SEED_BASE,
     SweepSettings,
     conditions,
     read_sweep,
     run_sweep,
     sweep_jobs,
     sweep_worlds,
-    t_interval,
-    wilson_interval,
 )
-from d3dwa_bullet.sim.noise import NoiseConfig
+from d3dwa_bullet.sim.noise_config import NoiseConfig
+from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
 
 
 def tiny_settings(world: str, **kw) -> SweepSettings:

@@ -1,0 +1,234 @@
+"""A results directory on disk: reading and writing it, resuming it, judging it complete.
+
+A results directory holds::
+
+    meta.json          format version, package version, episode config, the command's
+                       settings and the key of every job of the last run (what "complete" means)
+    results.csv        one row per finished episode: appended as episodes finish, then, once
+                       every job of the run is in, rewritten in the order the jobs were listed
+    logs/*.npz         the per-step log of every episode (pose, command, weights, tau, obs)
+    table.md           Table I layout, written only once every episode is in results.csv
+    figures/*.png      one trajectory figure per world (all methods side by side)
+
+Rows are appended and flushed one by one, so an interrupted run loses nothing finished;
+running the same command again skips episodes already in results.csv (a row cut short by
+a kill is dropped and its episode rerun). The final rewrite in job order makes the file the
+same bytes whatever the number of workers and the order episodes finished in. Pages derived
+from the rows (table.md, sweep.md, report.md) are deleted when a run starts with episodes
+to do and rewritten once it is complete, so a stale page never poses as the result of the
+current job set. Every whole-file write is atomic (:mod:`d3dwa_bullet.io`).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import asdict
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from d3dwa_bullet import __version__
+from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text
+
+if TYPE_CHECKING:  # for annotations only: this module reads and writes files, runs nothing
+    from d3dwa_bullet.episode import EpisodeResult
+
+RESULTS_FORMAT = 2
+"""2: meta.json lists the run's job keys and settings (1 had neither)."""
+CSV_FIELDS = (
+    "world",
+    "method",
+    "seed",
+    "noise",
+    "outcome",
+    "time_s",
+    "tl_m",
+    "pd_rad",
+    "min_clearance_m",
+    "steps",
+)
+DERIVED_PAGES = ("table.md", "sweep.md", "report.md")
+"""Pages computed from results.csv; removed while a run is incomplete."""
+
+Key = tuple[str, str, int, str]
+"""(world, method, seed, noise): what identifies an episode in a results directory."""
+
+
+def row_key(row: Mapping[str, Any]) -> Key:
+    """The key of a typed results row (see :func:`read_results`)."""
+    return (row["world"], row["method"], row["seed"], row["noise"])
+
+
+def read_results(out: Path) -> list[dict[str, Any]]:
+    """Rows of results.csv with typed values (empty if absent)."""
+    path = out / "results.csv"
+    if not path.exists():
+        return []
+    with path.open(newline="", encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    for row in rows:
+        if set(CSV_FIELDS) - set(row):
+            raise ResultsError(f"{path}: missing columns {sorted(set(CSV_FIELDS) - set(row))}")
+        row["seed"], row["steps"] = int(row["seed"]), int(row["steps"])
+        for k in ("time_s", "tl_m", "pd_rad", "min_clearance_m"):
+            row[k] = float(row[k])
+    return rows
+
+
+def read_meta(out: Path) -> dict[str, Any]:
+    """meta.json of a results directory ({} if absent)."""
+    meta = out / "meta.json"
+    if not meta.exists():
+        return {}
+    try:
+        data = json.loads(meta.read_text())
+    except json.JSONDecodeError as err:
+        raise ResultsError(f"{meta}: not valid JSON ({err})") from err
+    if not isinstance(data, dict):
+        raise ResultsError(f"{meta}: expected a JSON object, got {type(data).__name__}")
+    return data
+
+
+def write_meta(
+    out: Path,
+    config: Any,
+    settings: Mapping[str, Any],
+    fields: Sequence[str],
+    keys: Sequence[Key],
+) -> None:
+    """meta.json of a run: config is the run's EpisodeConfig (a dataclass), keys its jobs'."""
+    meta = {
+        "format": RESULTS_FORMAT,
+        "version": __version__,
+        "config": asdict(config),
+        "settings": dict(settings),
+        "columns": list(fields),
+        "jobs": [list(k) for k in keys],
+    }
+    atomic_write_text(out / "meta.json", json.dumps(meta, indent=1, default=str))
+
+
+def csv_header(out: Path) -> list[str] | None:
+    """The column names of out/results.csv (None if absent or empty)."""
+    path = out / "results.csv"
+    if not path.exists():
+        return None
+    with path.open(newline="", encoding="utf-8") as fh:
+        return next(csv.reader(fh), None)
+
+
+def check_results_dir(out: Path, fields: Sequence[str] | None = None) -> None:
+    """Refuse a results directory written by another format version, or (with fields) one
+    whose results.csv has other columns (e.g. a sweep's directory given to eval)."""
+    meta = out / "meta.json"
+    if meta.exists():
+        fmt = read_meta(out).get("format")
+        if fmt != RESULTS_FORMAT:
+            raise ResultsError(
+                f"{meta}: results format {fmt!r}, this version writes {RESULTS_FORMAT}; use a new --out directory"
+            )
+    elif (out / "results.csv").exists():
+        raise ResultsError(
+            f"{out}: results.csv without meta.json (older version?); use a new --out directory"
+        )
+    header = csv_header(out)
+    if fields is not None and header is not None and header != list(fields):
+        kind = read_meta(out).get("settings", {}).get("kind", "another command")
+        raise ResultsError(
+            f"{out / 'results.csv'}: columns {header} were written by {kind!r}, this command "
+            f"writes {list(fields)}; use another --out directory"
+        )
+
+
+def drop_partial_row(path: Path) -> bool:
+    """Cut a last line without its newline (a row half-written when the run was killed);
+    True if something was cut. Its episode is then simply run again."""
+    if not path.exists() or path.stat().st_size == 0:
+        return False
+    with path.open("rb+") as fh:
+        fh.seek(-1, os.SEEK_END)
+        if fh.read(1) == b"\n":
+            return False
+        fh.seek(0)
+        data = fh.read()
+        fh.seek(data.rfind(b"\n") + 1)
+        fh.truncate()
+    return True
+
+
+@contextmanager
+def appending_rows(out: Path, fields: Sequence[str]) -> Iterator[Any]:
+    """A function ``append(row)`` that adds one row to out/results.csv and flushes it (the
+    header first if the file is new or empty). Columns outside fields are ignored."""
+    path = out / "results.csv"
+    new_file = not path.exists() or path.stat().st_size == 0
+    with path.open("a", newline="", encoding="utf-8") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(fields), extrasaction="ignore")
+        if new_file:
+            writer.writeheader()
+            fh.flush()
+
+        def append(row: Mapping[str, Any]) -> None:
+            writer.writerow(row)
+            fh.flush()
+
+        yield append
+
+
+def order_results(out: Path, keys: Sequence[Key]) -> bool:
+    """Rewrite out/results.csv with the rows in the order of keys (atomically), rows of other
+    jobs after them in their present order; True if the file changed. Values are rewritten
+    as the strings they were written as, so the rows keep their bytes."""
+    path = out / "results.csv"
+    if not path.exists():
+        return False
+    data = path.read_bytes()
+    table = list(csv.reader(io.StringIO(data.decode("utf-8"), newline="")))
+    if not table:
+        return False
+    header, rows = table[0], table[1:]
+    at = {name: header.index(name) for name in ("world", "method", "seed", "noise")}
+    rank = {(w, m, str(s), n): i for i, (w, m, s, n) in enumerate(keys)}
+    last = len(rank)
+
+    def position(row: list[str]) -> int:
+        key = (row[at["world"]], row[at["method"]], row[at["seed"]], row[at["noise"]])
+        return rank.get(key, last)
+
+    buffer = io.StringIO(newline="")
+    csv.writer(buffer).writerows([header, *sorted(rows, key=position)])
+    ordered = buffer.getvalue().encode("utf-8")
+    if ordered == data:
+        return False
+    atomic_write_bytes(path, ordered)
+    return True
+
+
+def completion(out: Path, rows: Sequence[dict[str, Any]] | None = None) -> tuple[int, int]:
+    """(episodes finished, episodes in the last run's job list) of a results directory."""
+    jobs = {tuple(k) for k in read_meta(out).get("jobs", [])}
+    rows = read_results(out) if rows is None else rows
+    done = {row_key(r) for r in rows}
+    return len(jobs & done), len(jobs)
+
+
+def save_log(result: EpisodeResult, path: Path) -> None:
+    """Per-step log as .npz (atomic): the outcome, the observations and every log array."""
+    buffer = io.BytesIO()
+    np.savez_compressed(
+        buffer, outcome=result.outcome, observations=result.observations, **result.log
+    )
+    atomic_write_bytes(path, buffer.getvalue())
+
+
+def load_log(path: Path) -> dict[str, Any]:
+    """The arrays of a log written by :func:`save_log`."""
+    with np.load(path) as data:
+        return {k: data[k] for k in data.files}
