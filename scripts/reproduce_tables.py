@@ -22,7 +22,9 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from d3dwa_bullet.cli.app import TABLE1_WORLDS, TABLE2_WORLDS, build_parser, default_methods
+from d3dwa_bullet.cli.app import build_parser
+from d3dwa_bullet.cli.eval import TABLE1_WORLDS, TABLE2_WORLDS
+from d3dwa_bullet.cli.options import default_methods
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation.report import write_report, write_table_page
 

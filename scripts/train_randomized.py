@@ -17,7 +17,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from d3dwa_bullet.cli.app import add_train_arguments, cmd_train
+from d3dwa_bullet.cli.train import add_train_arguments, cmd_train
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.resources import configs_dir
 

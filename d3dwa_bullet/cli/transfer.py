@@ -19,6 +19,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, TextIO
 
+from d3dwa_bullet.cli.options import parse_floats
 from d3dwa_bullet.errors import BagFormatError, ConfigError, D3DWAError
 from d3dwa_bullet.sim.scan import Pose2D
 from transfer.bag_writer import BagRecorder
@@ -32,17 +33,6 @@ from transfer.topics import TopicMap
 OBSERVE_METHOD = "observe"
 #: Pose sources of the replay (``--estimator``).
 ESTIMATORS = ("odometry", "ekf")
-
-
-def parse_floats(text: str, n: int, what: str) -> tuple[float, ...]:
-    """'1.0,2.5' -> (1.0, 2.5); BagFormatError naming the option if malformed."""
-    try:
-        values = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if len(values) != n:
-        raise BagFormatError(f"{what} needs {n} comma-separated numbers, got {text!r}")
-    return values
 
 
 def parse_topic_overrides(items: list[str] | None) -> TopicMap:

@@ -1,0 +1,80 @@
+"""``d3dwa run``: one episode of one method on one world (headless; ``--gui`` to watch)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from d3dwa_bullet.cli.options import (
+    add_episode_options,
+    add_task_options,
+    episode_config,
+    load_task_world,
+)
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("run", help="run one episode")
+    p.add_argument("--world", required=True, help="world name (see `d3dwa worlds`) or a world file")
+    p.add_argument(
+        "--method", required=True, help="dwa1, dwa2, dwa3, dqdwa, d3dwa-weights, d3dwa, d3dwa-dr"
+    )
+    p.add_argument("--seed", type=int, default=0)
+    add_task_options(p)
+    p.add_argument("--gui", action="store_true", help="open the PyBullet GUI")
+    p.add_argument("--plot", help="write the trajectory over the map to this PNG")
+    p.add_argument(
+        "--colour-by", choices=("time", "tau"), default="time", help="trajectory colour in --plot"
+    )
+    add_episode_options(p)
+    p.set_defaults(func=cmd_run)
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    # start-up cost: the simulator (pybullet) is imported only when an episode runs
+    from d3dwa_bullet.episode import run_episode
+    from d3dwa_bullet.evaluation.jobs import make_noise
+    from d3dwa_bullet.methods import LABELS, make_controller
+
+    config = episode_config(args)
+    world = load_task_world(args)
+    controller = make_controller(args.method, args.policy)
+    result = run_episode(
+        world, controller, seed=args.seed, noise=make_noise(args.noise, args.seed),
+        noise_name=args.noise, config=config, gui=args.gui,
+    )  # fmt: skip
+    if args.plot:
+        # start-up cost: matplotlib (~0.3 s) only with --plot
+        from d3dwa_bullet.evaluation.plotting import trajectory_figure
+
+        log = result.log
+        t = list(log["t"]) + [result.time_s]
+        tau = list(log["tau"]) + list(log["tau"][-1:])
+        trajectory_figure(
+            world,
+            [
+                {
+                    "label": LABELS.get(args.method, args.method),
+                    "method": args.method,
+                    "outcome": result.outcome,
+                    "t": t,
+                    "x": log["true_x"],
+                    "y": log["true_y"],
+                    "tau": tau,
+                }
+            ],  # fmt: skip
+            args.plot,
+            colour_by=args.colour_by,
+        )
+    summary = result.summary()
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(
+            f"{summary['world']} {summary['method']} seed {summary['seed']}: {summary['outcome']} "
+            f"in {summary['time_s']:.1f} s, TL {summary['tl_m']:.2f} m, PD {summary['pd_rad']:.2f} rad, "
+            f"min clearance {summary['min_clearance_m']:.3f} m ({summary['steps']} steps)"
+        )
+        if args.plot:
+            print(f"figure: {args.plot}")
+    return 0

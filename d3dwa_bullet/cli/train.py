@@ -1,0 +1,103 @@
+"""``d3dwa train``: train a learned method (D3QN or tabular DQDWA), or resume a run."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.resources import configs_dir
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("train", help="train a learned method (D3QN or tabular DQDWA)")
+    add_train_arguments(p)
+    p.set_defaults(func=cmd_train)
+
+
+def add_train_arguments(p: argparse.ArgumentParser) -> None:
+    """Options of `d3dwa train` (also used by scripts/train_randomized.py)."""
+    p.add_argument(
+        "--method", help="d3dwa, d3dwa-weights, d3dwa-dr or dqdwa (default: the config's)"
+    )
+    p.add_argument(
+        "--config",
+        help="training config YAML (default: configs/<method>.yaml of the repository)",
+    )
+    p.add_argument("--out", help="run directory (default: runs/<method>__s<seed>__<time>)")
+    p.add_argument("--resume", action="store_true", help="continue the run in --out exactly")
+    p.add_argument(
+        "--total-steps", type=int, help="override total_steps (may extend a run on --resume)"
+    )
+    p.add_argument("--seed", type=int, help="override the config's seed")
+    p.add_argument(
+        "--export", help="also copy the run's policy here when done (e.g. policies/d3dwa)"
+    )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    # start-up cost: training imports torch (~1 s)
+    from d3dwa_bullet.learning.training import (
+        TrainConfig,
+        export_policy,
+        load_train_config,
+        train,
+    )
+
+    overrides = {"method": args.method, "total_steps": args.total_steps, "seed": args.seed}
+    if args.resume and not args.out:
+        raise ConfigError("--resume needs --out DIR (the run to continue)")
+    if args.config:
+        config: TrainConfig | None = load_train_config(args.config, **overrides)
+    elif args.resume:  # the run's own config; only total_steps may be extended
+        saved = Path(args.out) / "config.json"
+        config = load_train_config(saved, **overrides) if saved.exists() else None
+    elif args.method and (configs_dir() / f"{args.method}.yaml").exists():
+        config = load_train_config(configs_dir() / f"{args.method}.yaml", **overrides)
+    else:
+        config = TrainConfig(**{k: v for k, v in overrides.items() if v is not None})
+    if args.out:
+        out = Path(args.out)
+    else:
+        assert config is not None
+        out = Path("runs") / f"{config.method}__s{config.seed}__{time.strftime('%Y%m%d-%H%M%S')}"
+    try:
+        summary = train(
+            config, out, resume=args.resume, progress=not (args.no_progress or args.json)
+        )
+    except KeyboardInterrupt:  # a second Ctrl-C: stopped without saving
+        print(
+            f"d3dwa: training aborted; the last checkpoint ({out / 'checkpoints' / 'latest'}) "
+            "is intact: resume with --resume",
+            file=sys.stderr,
+        )
+        return 130
+    if summary["status"] == "done" and args.export:
+        keep = load_train_config(out / "config.json").keep
+        summary["exported"] = str(export_policy(out, args.export, keep))
+    if args.json:
+        print(json.dumps(summary))
+        return 130 if summary["status"] == "interrupted" else 0
+    best = summary["best_eval"]
+    print(
+        f"{summary['method']}: {summary['status']} after {summary['env_steps']} env steps, "
+        f"{summary['train_steps']} updates, {summary['episodes']} episodes in "
+        f"{summary['wall_time_s']:.0f} s ({summary['steps_per_s']} steps/s)"
+    )
+    if best:
+        print(
+            f"best greedy evaluation (training worlds) at step {best['step']}: success "
+            f"{best['success_rate']:.2f}, collisions {best['collision_rate']:.2f}"
+        )
+    if summary["status"] == "interrupted":
+        print(f"checkpoint saved; continue with: d3dwa train --resume --out {out}")
+        return 130
+    print(f"run: {out}\npolicy: {summary['policy']}")
+    if "exported" in summary:
+        print(f"exported: {summary['exported']}")
+    return 0
