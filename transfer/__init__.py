@@ -1,9 +1,13 @@
 """Sim-to-real transfer through ROS bags.
 
 ``bag_reader`` turns a ROS 1 / ROS 2 bag into numpy time series, ``replay`` runs every
-recorded scan through the observation pipeline (and, once wired, estimator, policy and
-planner), ``bag_writer`` records simulated episodes as ROS 2 bags with the Kachaka topic
-names, and ``compare`` sets two bags' scans side by side, sector by sector.
+recorded scan through a step function (observations only by default), ``bag_writer``
+records ROS 2 or ROS 1 bags with the Kachaka topic names, and ``compare`` sets two bags'
+scans side by side, sector by sector.
+
+``transfer.sim_bridge`` (the simulator's decision pipeline as a replay step, and simulated
+episodes recorded as bags) is deliberately not imported here: ``import transfer`` stays
+free of pybullet, so bag code runs where the simulator is not installed.
 """
 
 from transfer.bag_reader import BagData, read_bag
