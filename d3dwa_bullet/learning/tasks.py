@@ -27,8 +27,10 @@ import numpy as np
 
 from d3dwa_bullet.errors import ConfigError, D3DWAError
 from d3dwa_bullet.sim.noise import NoiseModel
-from d3dwa_bullet.world.generator import generate_world, load_generator
-from d3dwa_bullet.world.model import World, load_world
+from d3dwa_bullet.world.generator import generate_world
+from d3dwa_bullet.world.generator_spec import load_generator
+from d3dwa_bullet.world.model import World
+from d3dwa_bullet.world.registry import load_world
 from d3dwa_bullet.world.route_start import ROUTE_START_CLEARANCE, route_polyline, route_start
 from randomization import episode_noise, load_profile
 

@@ -14,7 +14,7 @@ from d3dwa_bullet import ENV_ID
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.learning.env import D3DWAEnv
 from d3dwa_bullet.learning.reward import reward
-from d3dwa_bullet.learning.training.trainer import TrainConfig
+from d3dwa_bullet.learning.training import TrainConfig
 from d3dwa_bullet.params import RewardParams
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
 from d3dwa_bullet.world.model import World

@@ -14,21 +14,22 @@ import pytest
 import torch
 
 from d3dwa_bullet.cli.app import main
-from d3dwa_bullet.errors import CheckpointError, ConfigError
+from d3dwa_bullet.errors import CheckpointError, ConfigError, TrainingError
 from d3dwa_bullet.learning.agents.checkpoint import EXTRA_FILES, load_checkpoint, save_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAConfig
 from d3dwa_bullet.learning.agents.policy import load_policy
 from d3dwa_bullet.learning.env import D3DWAEnv
-from d3dwa_bullet.learning.training.trainer import (
+from d3dwa_bullet.learning.training import (
     TrainConfig,
     Trainer,
-    TrainingError,
     load_train_config,
     read_episodes,
     read_metrics,
     train,
 )
+from d3dwa_bullet.learning.training.curriculum import Curriculum
+from d3dwa_bullet.learning.training.schedule import Cadence
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
 from d3dwa_bullet.resources import configs_dir
 
@@ -126,7 +127,7 @@ def test_route_start_episodes_are_logged_but_not_rated_by_the_curriculum(
     rows = read_episodes(out)
     flags = [r["route_start"] for r in rows]
     assert True in flags and False in flags  # both kinds were drawn
-    window = trainer.history["tiny"]
+    window = trainer.progress.curriculum.history["tiny"]
     nominal = [int(r["outcome"] == "goal") for r in rows if not r["route_start"]]
     assert list(window) == nominal[-config.curriculum_window :]
 
@@ -249,7 +250,10 @@ def test_dqdwa_through_the_cli(tiny: str, tmp_path: Path, capsys: pytest.Capture
         ({"horizons": ()}, "horizons: the candidate set is empty"),
         ({"weights": (0.0, 1.0)}, "weights: candidate 0.0 must be"),
         ({"weights": (-1.0, 2.0)}, "must be a finite number > 0"),
-        ({"agent": D3QNConfig(batch_size=64, buffer_size=64)}, None),
+        (
+            {"agent": {"batch_size": 64, "buffer_size": 32}},
+            r"buffer_size must be >= batch_size \(64\)",
+        ),
         ({"worlds": ("TS1", "US1")}, "evaluation-only"),
         ({"eval_worlds": ("H2",)}, "evaluation-only"),
         ({"method": "dwa3"}, "not a learned method"),
@@ -261,13 +265,11 @@ def test_dqdwa_through_the_cli(tiny: str, tmp_path: Path, capsys: pytest.Capture
         ({"route_start_span": 1.0}, "route_start_span"),
     ],
 )
-def test_bad_configs_raise(changes: dict, match: str | None) -> None:
-    if "agent" in changes and match is None:  # buffer smaller than batch: the agent's check
-        with pytest.raises(ConfigError, match="buffer_size"):
-            D3QNConfig(batch_size=64, buffer_size=32)
-        return
+def test_bad_configs_raise(changes: dict, match: str) -> None:
+    # through from_dict, as a YAML file is read: an agent mapping is checked by its config class
+    base = {"worlds": ("TS1",), "generators": (), "eval_worlds": ("TS1",)}
     with pytest.raises(ConfigError, match=match):
-        TrainConfig(**{"worlds": ("TS1",), "generators": (), "eval_worlds": ("TS1",)} | changes)
+        TrainConfig.from_dict(base | changes)
 
 
 def test_bad_config_files_raise(tmp_path: Path) -> None:
@@ -302,3 +304,27 @@ def test_checkpoint_extra_files_are_digested(tmp_path: Path) -> None:
     assert "config.json" in EXTRA_FILES
     with pytest.raises(CheckpointError, match="not allowed"):
         save_checkpoint(tmp_path / "d", agent, extra_files={"notes.txt": b""})
+
+
+def test_cadence_fires_once_per_period_and_never_when_zero() -> None:
+    every = Cadence(50)
+    fired = [step for step in range(1, 201) if every.take(step)]
+    assert fired == [50, 100, 150, 200]
+    late = Cadence(50)  # checked only at episode ends: fires at the first one past each period
+    assert [step for step in (30, 70, 80, 160, 170, 230) if late.take(step)] == [70, 160, 170, 230]
+    never = Cadence(0)
+    assert not any(never.take(step) for step in range(1, 1000)) and never.state() is None
+    restored = Cadence(50)
+    restored.restore(late.state())
+    assert restored.next == late.next == 250
+
+
+def test_adaptive_curriculum_weights_follow_the_failure_rates() -> None:
+    curriculum = Curriculum("adaptive", window=2, floor=0.25)
+    for task, success in [("a", 0), ("a", 1), ("a", 1), ("b", 0)]:
+        curriculum.record(task, success)
+    # a: last two both solved -> floor; b: failed -> 1 + floor; c: never tried -> 1 + floor
+    assert curriculum.weights(["a", "b", "c"]) == [0.25, 1.25, 1.25]
+    again = Curriculum("adaptive", window=2, floor=0.25)
+    again.load(curriculum.to_dict())
+    assert again.weights(["a", "b", "c"]) == [0.25, 1.25, 1.25]

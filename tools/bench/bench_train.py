@@ -20,7 +20,7 @@ import tempfile
 from dataclasses import replace
 from pathlib import Path
 
-from d3dwa_bullet.learning.training.trainer import load_train_config, train
+from d3dwa_bullet.learning.training import load_train_config, train
 from d3dwa_bullet.resources import configs_dir
 
 

@@ -1,0 +1,124 @@
+"""The checkpoints a training run writes, and the policy it exports.
+
+``checkpoints/latest`` is resumable (policy, config.json, learning curve and the training
+state); ``checkpoints/best`` and ``checkpoints/final`` are policies with config.json;
+``export_policy`` copies one of them, without any training state, to where a policy is
+shipped (``policies/<method>/``). Every checkpoint is swapped in atomically by
+``save_checkpoint``, and non-finite values are never saved (``check_finite``): the last
+good checkpoint stays.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from d3dwa_bullet.errors import TrainingError
+from d3dwa_bullet.learning.agents.checkpoint import (
+    CONFIG_FILE,
+    CURVE_FILE,
+    load_checkpoint,
+    save_checkpoint,
+)
+from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
+from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
+from d3dwa_bullet.learning.agents.training_state import (
+    restore_training_state,
+    training_state_files,
+)
+from d3dwa_bullet.learning.training.config import TrainConfig
+from d3dwa_bullet.learning.training.logs import MetricsLog, learning_curve
+from d3dwa_bullet.learning.training.run_dir import checkpoint_dir, config_bytes
+from d3dwa_bullet.learning.training.state import TrainingProgress
+
+Agent = D3QNAgent | DQDWAAgent
+
+
+def check_finite(agent: Agent, out: Path, step: int) -> None:
+    """TrainingError if the agent's weights (or Q-table) hold NaN or inf."""
+    if isinstance(agent, D3QNAgent):
+        ok = all(bool(v.isfinite().all()) for v in agent.online.state_dict().values())
+    else:
+        ok = bool(np.isfinite(agent.table).all())
+    if not ok:
+        raise TrainingError(
+            f"{out}: the {agent.method_family} agent's values became NaN/inf at step "
+            f"{step}; nothing saved (the last good checkpoint is kept)"
+        )
+
+
+def run_metadata(
+    config: TrainConfig, out: Path, progress: TrainingProgress, extra: Mapping[str, Any] | None
+) -> dict[str, Any]:
+    """The ``metadata`` of a run's checkpoint: method, run, counters, training material."""
+    c = config
+    return {
+        "method": c.method,
+        "run": out.name,
+        "env_steps": progress.env_steps,
+        "episodes": progress.episodes,
+        "worlds": list(c.worlds),
+        "generators": list(c.generators),
+        "noise": list(c.noise),
+        "reward_scale": c.reward_scale,
+        **dict(extra or {}),
+    }
+
+
+def save_latest(
+    out: Path, agent: Agent, config: TrainConfig, progress: TrainingProgress, logs: MetricsLog
+) -> None:
+    """Redraw the learning curve and save the resumable ``checkpoints/latest``."""
+    check_finite(agent, out, progress.env_steps)
+    learning_curve(out, out / CURVE_FILE,
+                   f"{config.method}: {progress.env_steps} steps, seed {config.seed}")  # fmt: skip
+    files: dict[str, Any] = dict(training_state_files(agent, progress.to_dict(logs.sizes())))
+    files[CONFIG_FILE] = config_bytes(config)
+    files[CURVE_FILE] = out / CURVE_FILE
+    save_checkpoint(checkpoint_dir(out, "latest"), agent, run_metadata(config, out, progress, None),
+                    method=config.method, extra_files=files)  # fmt: skip
+
+
+def load_latest(out: Path, config: TrainConfig) -> tuple[Agent, dict[str, Any]]:
+    """The agent of ``checkpoints/latest`` with its training state restored, and the
+    trainer's state saved beside it (CheckpointError if anything does not fit)."""
+    latest = checkpoint_dir(out, "latest")
+    agent, _ = load_checkpoint(latest, expected_actions=config.actions)
+    return agent, restore_training_state(latest, agent)
+
+
+def save_policy(
+    out: Path,
+    name: str,
+    agent: Agent,
+    config: TrainConfig,
+    progress: TrainingProgress,
+    extra: Mapping[str, Any],
+) -> Path:
+    """Save the policy ``checkpoints/<name>`` (best or final) with the run's config.json."""
+    check_finite(agent, out, progress.env_steps)
+    return save_checkpoint(
+        checkpoint_dir(out, name),
+        agent,
+        run_metadata(config, out, progress, extra),
+        method=config.method,
+        extra_files={CONFIG_FILE: config_bytes(config)},
+    )
+
+
+def export_policy(
+    run_dir: str | os.PathLike[str], dest: str | os.PathLike[str], which: str = "best"
+) -> Path:
+    """Copy a run's policy (checkpoints/<which>) to ``dest`` with config.json and the
+    learning curve, without any training state (what ``policies/<method>/`` holds)."""
+    run = Path(run_dir)
+    src = checkpoint_dir(run, which)
+    agent, meta = load_checkpoint(src)
+    extra: dict[str, Any] = {CONFIG_FILE: run / CONFIG_FILE}
+    if (run / CURVE_FILE).exists():
+        extra[CURVE_FILE] = run / CURVE_FILE
+    return save_checkpoint(dest, agent, meta["metadata"], method=meta["method"], extra_files=extra)

@@ -1,0 +1,251 @@
+"""The configuration of one training run: ``TrainConfig``, read from YAML, and what it builds.
+
+A ``TrainConfig`` is frozen and validated on construction (ConfigError names the field and
+the value); ``to_dict`` / ``from_dict`` round-trip it through JSON, so the ``config.json``
+saved beside every checkpoint reloads with ``load_train_config``. ``make_env`` and
+``make_agent`` build the training env and a fresh agent of a config.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, fields, replace
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
+from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
+from d3dwa_bullet.learning.env import D3DWAEnv
+from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, resolve_world
+from d3dwa_bullet.methods import LEARNED
+from d3dwa_bullet.planning.actions import ActionSet
+
+#: Reward scale by agent family: the D3QN uses the baseline magnitudes / 100 (paper).
+DEFAULT_REWARD_SCALE = {"d3qn": 0.01, "dqdwa": 1.0}
+CURRICULA = ("uniform", "adaptive")
+KEEP = ("best", "final")
+
+
+def _tuple(value: Any, name: str, kind: type = str) -> tuple:
+    if isinstance(value, str | int | float):
+        value = [value]
+    try:
+        return tuple(kind(v) for v in value)
+    except (TypeError, ValueError) as err:
+        raise ConfigError(
+            f"TrainConfig.{name}: expected a list of {kind.__name__}, got {value!r}"
+        ) from err
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything one training run needs; saved as config.json beside every checkpoint."""
+
+    method: str = "d3dwa"
+    """Method to train: d3dwa, d3dwa-weights, d3dwa-dr (D3QN) or dqdwa (tabular)."""
+    total_steps: int = 150_000
+    """Environment (control) steps of the whole run, 0.1 s each."""
+    worlds: tuple[str, ...] = TRAIN_WORLDS
+    """Training worlds (names or files); the unseen and real groups are refused."""
+    generators: tuple[str, ...] = ("R1-style", "R2-style", "R3-style")
+    """Generator styles whose fresh random layouts are trained on."""
+    generator_prob: float = 0.3
+    """Base probability that an episode uses a generated layout instead of a world."""
+    noise: tuple[str, ...] = ("none",)
+    """Randomisation profiles; one is drawn per episode, then sampled per episode."""
+    noise_probs: tuple[float, ...] = ()
+    """Weights of the noise profiles (empty: uniform)."""
+    route_start_prob: float = 0.0
+    """Probability that an episode on a training world starts at a random point along its
+    route (``route_start``) instead of the world's start; generated layouts never do."""
+    route_start_span: float = 0.8
+    """Route starts are uniform over this first fraction of the route's length."""
+    curriculum: str = "adaptive"
+    """Task sampling: 'uniform' (base probabilities) or 'adaptive' (favour failed tasks)."""
+    curriculum_window: int = 20
+    """Recent episodes per task that the adaptive curriculum's failure rate counts."""
+    curriculum_floor: float = 0.25
+    """Weight of a task solved every time, relative to 1 + floor for one never solved."""
+    reward_scale: float | None = None
+    """Multiplies every reward term; None: 0.01 for the D3QN methods, 1.0 for dqdwa."""
+    weights: tuple[float, ...] | None = None
+    """Weight candidates W; None: the method's action set."""
+    horizons: tuple[float, ...] | None = None
+    """Horizon candidates T, s; None: the method's action set."""
+    agent: D3QNConfig | DQDWAConfig | None = None
+    """Agent hyper-parameters (D3QNConfig or DQDWAConfig); None: that class's defaults."""
+    eval_every: int = 25_000
+    """Greedy evaluation every this many env steps (at the next episode end); 0: never."""
+    eval_worlds: tuple[str, ...] = TRAIN_WORLDS
+    """Worlds of the periodic evaluation: training worlds only (generated names allowed)."""
+    eval_seeds: tuple[int, ...] = (0,)
+    """Episode seeds of each evaluation world."""
+    eval_noise: str = "none"
+    """Noise profile of the periodic evaluation."""
+    checkpoint_every: int = 25_000
+    """Save the resumable checkpoint every this many env steps (at episode end); 0: only at the end."""
+    log_every: int = 1_000
+    """Write loss, epsilon and curriculum scalars every this many env steps."""
+    keep: str = "best"
+    """Policy exported to <out>/policy: 'best' (greedy evaluation on training worlds) or 'final'."""
+    seed: int = 0
+    """Seeds the agent (network, exploration, replay) and the episode sequence."""
+
+    def __post_init__(self) -> None:
+        if self.method not in LEARNED:
+            raise ConfigError(
+                f"TrainConfig.method: {self.method!r} is not a learned method; choose one of "
+                f"{', '.join(LEARNED)}"
+            )
+        set_ = lambda name, value: object.__setattr__(self, name, value)  # noqa: E731
+        for name in ("worlds", "generators", "noise", "eval_worlds"):
+            set_(name, _tuple(getattr(self, name), name))
+        set_("noise_probs", _tuple(self.noise_probs, "noise_probs", float))
+        set_("eval_seeds", _tuple(self.eval_seeds, "eval_seeds", int))
+        base = LEARNED[self.method]
+        for name in ("weights", "horizons"):
+            value = getattr(self, name)
+            set_(name, getattr(base, name) if value is None else _tuple(value, name, float))
+        ActionSet(self.weights, self.horizons)  # type: ignore[arg-type]  # ConfigError if bad
+        family = self.family
+        agent_cls = D3QNConfig if family == "d3qn" else DQDWAConfig
+        agent = self.agent if self.agent is not None else agent_cls()
+        if not isinstance(agent, agent_cls):
+            raise ConfigError(
+                f"TrainConfig.agent: method {self.method!r} needs a {agent_cls.__name__}, "
+                f"got {type(agent).__name__}"
+            )
+        set_("agent", replace(agent, seed=int(self.seed)))
+        if self.reward_scale is None:
+            set_("reward_scale", DEFAULT_REWARD_SCALE[family])
+        checks: list[tuple[str, bool, str]] = [
+            ("total_steps", self.total_steps >= 1, ">= 1"),
+            ("generator_prob", 0.0 <= self.generator_prob <= 1.0, "in [0, 1]"),
+            ("route_start_prob", 0.0 <= self.route_start_prob <= 1.0, "in [0, 1]"),
+            ("route_start_span", 0.0 < self.route_start_span < 1.0, "in (0, 1)"),
+            ("curriculum", self.curriculum in CURRICULA, f"one of {CURRICULA}"),
+            ("curriculum_window", self.curriculum_window >= 1, ">= 1"),
+            ("curriculum_floor", self.curriculum_floor > 0, "> 0"),
+            (
+                "reward_scale",
+                math.isfinite(float(self.reward_scale)) and float(self.reward_scale) > 0,  # type: ignore[arg-type]
+                "a finite number > 0",
+            ),
+            ("eval_every", self.eval_every >= 0, ">= 0"),
+            ("eval_seeds", bool(self.eval_seeds), "non-empty"),
+            ("checkpoint_every", self.checkpoint_every >= 0, ">= 0"),
+            ("log_every", self.log_every >= 1, ">= 1"),
+            ("keep", self.keep in KEEP, f"one of {KEEP}"),
+            ("seed", self.seed >= 0, ">= 0"),
+            ("noise", bool(self.noise), "non-empty ('none' for noise-free)"),
+        ]
+        for name, ok, rule in checks:
+            if not ok:
+                raise ConfigError(f"TrainConfig.{name} must be {rule}, got {getattr(self, name)!r}")
+        if not self.worlds and not self.generators:
+            raise ConfigError("TrainConfig: give at least one training world or generator style")
+        if self.noise_probs and len(self.noise_probs) != len(self.noise):
+            raise ConfigError(
+                f"TrainConfig.noise_probs: {len(self.noise_probs)} weights for "
+                f"{len(self.noise)} noise profiles {list(self.noise)}"
+            )
+        if self.keep == "best" and self.eval_every == 0:
+            raise ConfigError("TrainConfig.keep = 'best' needs eval_every > 0")
+        for w in self.worlds:
+            resolve_world(w, False, "TrainConfig.worlds")
+        for w in self.eval_worlds:
+            resolve_world(w, False, "TrainConfig.eval_worlds")
+        if self.eval_every and not self.eval_worlds:
+            raise ConfigError("TrainConfig.eval_worlds: empty, but eval_every > 0")
+
+    @property
+    def family(self) -> str:
+        """Agent family: 'd3qn' or 'dqdwa'."""
+        return "dqdwa" if self.method == "dqdwa" else "d3qn"
+
+    @property
+    def actions(self) -> ActionSet:
+        """The action set trained over."""
+        return ActionSet(self.weights, self.horizons)  # type: ignore[arg-type]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict; ``from_dict`` inverts it."""
+        out: dict[str, Any] = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            out[f.name] = list(value) if isinstance(value, tuple) else value
+        out["agent"] = self.agent.to_dict()  # type: ignore[union-attr]
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], source: str = "<dict>") -> TrainConfig:
+        """Build from a mapping (YAML/JSON content); ConfigError names the source and field."""
+        if not isinstance(data, Mapping):
+            raise ConfigError(f"{source}: expected a mapping of TrainConfig fields, got {data!r}")
+        known = [f.name for f in fields(cls)]
+        unknown = sorted(set(data) - set(known))
+        if unknown:
+            raise ConfigError(f"{source}: unknown field(s) {unknown}; known: {', '.join(known)}")
+        kwargs = dict(data)
+        method = kwargs.get("method", cls.method)
+        agent = kwargs.get("agent")
+        try:
+            if isinstance(agent, Mapping):
+                agent_cls = DQDWAConfig if method == "dqdwa" else D3QNConfig
+                kwargs["agent"] = agent_cls.from_dict(agent)
+            return cls(**kwargs)
+        except ConfigError as err:
+            raise ConfigError(f"{source}: {err}") from err
+        except TypeError as err:
+            raise ConfigError(f"{source}: bad field value ({err})") from err
+
+
+def load_train_config(path: str | os.PathLike[str], **overrides: Any) -> TrainConfig:
+    """A TrainConfig from a YAML (or JSON) file, with keyword overrides (None = keep)."""
+    p = Path(path)
+    try:
+        data = yaml.safe_load(p.read_text())
+    except (OSError, yaml.YAMLError) as err:
+        raise ConfigError(f"{p}: cannot read the training config: {err}") from err
+    data = dict(data or {})
+    for key, value in overrides.items():
+        if value is not None:
+            if key == "method" and "method" in data and data["method"] != value:
+                raise ConfigError(
+                    f"{p}: the config trains {data['method']!r} but --method says {value!r}"
+                )
+            data[key] = value
+    return TrainConfig.from_dict(data, str(p))
+
+
+def make_env(config: TrainConfig, worlds: Sequence[str] | None = None) -> D3DWAEnv:
+    """The training env of a config (or an env over ``worlds`` only, for evaluation)."""
+    if worlds is not None:
+        return D3DWAEnv(
+            worlds=tuple(worlds),
+            actions=config.actions,
+            reward_scale=float(config.reward_scale),  # type: ignore[arg-type]
+        )
+    return D3DWAEnv(
+        worlds=config.worlds,
+        generators=config.generators,
+        generator_prob=config.generator_prob if config.generators else None,
+        noise=config.noise,
+        noise_probs=config.noise_probs,
+        actions=config.actions,
+        reward_scale=float(config.reward_scale),  # type: ignore[arg-type]
+        route_start_prob=config.route_start_prob,
+        route_start_span=config.route_start_span,
+    )
+
+
+def make_agent(config: TrainConfig) -> D3QNAgent | DQDWAAgent:
+    """A fresh agent of the config's family, action set and hyper-parameters."""
+    if config.family == "dqdwa":
+        return DQDWAAgent(config.actions, config.agent)  # type: ignore[arg-type]
+    return D3QNAgent(config.actions, config.agent)  # type: ignore[arg-type]

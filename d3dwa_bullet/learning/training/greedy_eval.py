@@ -1,0 +1,88 @@
+"""The periodic greedy evaluation of a training run, and how evaluations are compared.
+
+Every ``eval_every`` env steps (at the next episode end, and once at the end of the
+budget) the greedy policy of the agent runs one episode per evaluation world and seed,
+with the ``eval_noise`` profile. Evaluation worlds are training worlds (or generated
+layouts): the evaluation-only groups stay unseen. The best evaluation so far (success
+rate, then fewer collisions, then mean return) is what ``keep: best`` ships.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
+from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
+from d3dwa_bullet.learning.agents.policy import greedy_policy
+from d3dwa_bullet.learning.training.config import TrainConfig, make_env
+from d3dwa_bullet.learning.training.logs import MetricsLog
+
+
+def evaluate(agent: D3QNAgent | DQDWAAgent, config: TrainConfig, step: int) -> dict[str, Any]:
+    """Greedy episodes of ``agent`` on the config's evaluation worlds and seeds.
+
+    Returns {"step", "success_rate", "collision_rate", "mean_return", "mean_time_s" (of
+    the successful episodes, None if none), "outcomes": world -> outcome per seed}.
+    """
+    c = config
+    policy = greedy_policy(agent)
+    env = make_env(c, worlds=c.eval_worlds[:1])
+    outcomes: dict[str, list[str]] = {}
+    returns = []
+    times = []
+    try:
+        for world in c.eval_worlds:
+            for seed in c.eval_seeds:
+                obs, info = env.reset(
+                    options={"world": world, "noise": c.eval_noise, "episode_seed": seed}
+                )
+                total, n = 0.0, 0
+                while True:
+                    obs, r, terminated, truncated, info = env.step(policy(obs))
+                    total += r
+                    n += 1
+                    if terminated or truncated:
+                        break
+                outcomes.setdefault(info["world"], []).append(info["outcome"])
+                returns.append(total)
+                if info["outcome"] == "goal":
+                    times.append(n * 0.1)
+    finally:
+        env.close()
+    flat = [o for v in outcomes.values() for o in v]
+    return {
+        "step": step,
+        "success_rate": flat.count("goal") / len(flat),
+        "collision_rate": flat.count("collision") / len(flat),
+        "mean_return": float(np.mean(returns)),
+        "mean_time_s": float(np.mean(times)) if times else None,
+        "outcomes": outcomes,
+    }
+
+
+def log_evaluation(logs: MetricsLog, step: int, result: Mapping[str, Any]) -> None:
+    """The eval/ scalars of one evaluation (overall and per world), flushed."""
+    logs.scalar(step, "eval/success_rate", result["success_rate"])
+    logs.scalar(step, "eval/collision_rate", result["collision_rate"])
+    logs.scalar(step, "eval/mean_return", result["mean_return"])
+    for world, outs in result["outcomes"].items():
+        logs.scalar(step, f"eval/{world}_success", outs.count("goal") / len(outs))
+    logs.flush()  # the learning curve reads the file: the final evaluation must be on it
+
+
+def score(result: Mapping[str, Any]) -> list[float]:
+    """Sort key of an evaluation: success rate, then fewer collisions, then mean return."""
+    return [result["success_rate"], -result["collision_rate"], result["mean_return"]]
+
+
+def describe(step: int, result: Mapping[str, Any]) -> str:
+    """One progress line: the rates, the mean return and every world's outcomes."""
+    per_world = " ".join(f"{w}:{'/'.join(o)}" for w, o in result["outcomes"].items())
+    return (
+        f"step {step}: greedy eval success {result['success_rate']:.2f}, "
+        f"collisions {result['collision_rate']:.2f}, return {result['mean_return']:.3f} "
+        f"[{per_world}]"
+    )

@@ -1,0 +1,119 @@
+"""The directory of one training run: where each file lives, and the checks before writing.
+
+Layout::
+
+    <out>/config.json          the TrainConfig (reload it with load_train_config)
+    <out>/run.json             run name, package version, start time
+    <out>/episodes.csv         one row per training episode
+    <out>/metrics.jsonl        TensorBoard-style records {"step", "tag", "value"} (charts/...,
+                               losses/..., eval/..., curriculum/...) and the per-episode
+                               horizon histogram {"step", "tag": "planner/tau", "histogram"}
+    <out>/learning_curve.png   return and success rate vs environment steps
+    <out>/summary.json         status, counters, wall time, throughput, evaluations
+    <out>/checkpoints/latest/  resumable: policy + config.json + training state
+    <out>/checkpoints/best/    policy with the best greedy evaluation (training worlds)
+    <out>/checkpoints/final/   policy at the end of the budget
+    <out>/policy/              the policy to ship (``keep``: best or final) + config.json
+                               + learning_curve.png, no replay buffer
+
+(and ``<out>/tb/`` if ``torch.utils.tensorboard`` is importable.)
+
+A new run refuses a directory that already holds one; a resumed run needs its own
+``config.json`` and ``checkpoints/latest``, and a config that differs from the saved one
+only in ``total_steps``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from d3dwa_bullet import __version__
+from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.learning.agents.checkpoint import CONFIG_FILE, META_FILE
+from d3dwa_bullet.learning.training.config import TrainConfig, load_train_config
+
+RUN_FILE = "run.json"
+EPISODES_FILE = "episodes.csv"
+METRICS_FILE = "metrics.jsonl"
+SUMMARY_FILE = "summary.json"
+TENSORBOARD_DIR = "tb"
+CHECKPOINTS_DIR = "checkpoints"
+POLICY_DIR = "policy"
+#: The append-only logs (truncated to a checkpoint's sizes on resume).
+LOG_FILES = (EPISODES_FILE, METRICS_FILE)
+
+
+def checkpoint_dir(out: Path, name: str) -> Path:
+    """``<out>/checkpoints/<name>`` (latest, best or final)."""
+    return out / CHECKPOINTS_DIR / name
+
+
+def check_new_run(out: Path, config: TrainConfig | None) -> TrainConfig:
+    """``config`` for a new run in ``out``; ConfigError if there is none or ``out`` already
+    holds a training run."""
+    if config is None:
+        raise ConfigError("train: a TrainConfig is needed unless resuming")
+    if out.exists() and any((out / n).exists() for n in (CONFIG_FILE, CHECKPOINTS_DIR, *LOG_FILES)):
+        raise ConfigError(
+            f"{out}: already holds a training run; pass --resume to continue it "
+            "or choose a new --out directory"
+        )
+    return config
+
+
+def resume_config(out: Path, config: TrainConfig | None) -> TrainConfig:
+    """The config a resumed run in ``out`` goes on with: its own ``config.json`` when
+    ``config`` is None, else ``config`` if it differs from that only in total_steps.
+    ConfigError if there is nothing to resume or the config differs in anything else."""
+    path = out / CONFIG_FILE
+    if not path.exists():
+        raise ConfigError(f"{path}: missing; nothing to resume in {out}")
+    saved = load_train_config(path)
+    if config is None:
+        config = saved
+    else:
+        a, b = config.to_dict(), saved.to_dict()
+        a.pop("total_steps"), b.pop("total_steps")
+        diff = sorted(k for k in a if a[k] != b[k])
+        if diff:
+            raise ConfigError(
+                f"{out / CONFIG_FILE}: resuming with a config that differs in "
+                f"{diff}; only total_steps may change on resume"
+            )
+    latest = checkpoint_dir(out, "latest")
+    if not (latest / META_FILE).exists():
+        raise ConfigError(f"{latest}: no checkpoint to resume from")
+    return config
+
+
+def config_bytes(config: TrainConfig) -> bytes:
+    """The ``config.json`` content of a config (also saved beside every checkpoint)."""
+    return (json.dumps(config.to_dict(), indent=2) + "\n").encode()
+
+
+def write_config(out: Path, config: TrainConfig) -> None:
+    """Write ``<out>/config.json`` (on resume: the possibly extended total_steps)."""
+    (out / CONFIG_FILE).write_text(config_bytes(config).decode())
+
+
+def write_run_info(out: Path, config: TrainConfig) -> None:
+    """Write ``<out>/run.json``: run name ``D3DWA-v0__<method>__<seed>__<time>``, package
+    version and start time."""
+    run = {
+        "name": f"D3DWA-v0__{config.method}__{config.seed}__{int(time.time())}",
+        "package_version": __version__,
+        "started": datetime.now(UTC).isoformat(timespec="seconds"),
+    }
+    (out / RUN_FILE).write_text(json.dumps(run, indent=2) + "\n")
+
+
+def write_summary(out: Path, summary: dict[str, Any]) -> None:
+    """Write ``<out>/summary.json``, swapped in whole."""
+    tmp = out / (SUMMARY_FILE + ".tmp")
+    tmp.write_text(json.dumps(summary, indent=2) + "\n")
+    os.replace(tmp, out / SUMMARY_FILE)

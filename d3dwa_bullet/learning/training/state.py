@@ -1,0 +1,160 @@
+"""The resumable state of a training run, and how a resumed run rebuilds it exactly.
+
+Resumption is exact: ``checkpoints/latest`` holds the agent's training state (replay
+buffer, Adam moments, target network, its RNGs and counters: ``agents.training_state``)
+and the trainer's own ``TrainingProgress``: counters, timings, the schedule, the
+curriculum, the rolling statistics, the evaluations, the sizes of the logs, and the
+episode in progress as (its env RNG state, the actions taken so far). A resumed run
+truncates the logs to the checkpoint (``truncate_logs``), rebuilds that episode by
+replaying its actions (``replay_episode``; the simulator is deterministic in DIRECT
+mode) and goes on as if never stopped.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from d3dwa_bullet.errors import TrainingError
+from d3dwa_bullet.learning.env import D3DWAEnv
+from d3dwa_bullet.learning.training.config import TrainConfig
+from d3dwa_bullet.learning.training.curriculum import Curriculum
+from d3dwa_bullet.learning.training.logs import SUCCESS_WINDOW
+from d3dwa_bullet.learning.training.schedule import Schedule
+
+
+def env_seed(seed: int) -> int:
+    """The reset seed of the first training episode, derived from the run seed."""
+    return int(np.random.SeedSequence([int(seed), 1]).generate_state(1)[0])
+
+
+@dataclass
+class EpisodeProgress:
+    """The episode in progress, as much as exact resumption needs."""
+
+    reset_seed: int | None = None
+    """Seed passed to reset() (first episode only), else None."""
+    rng_before: dict[str, Any] | None = None
+    """The env's RNG state just before this episode's reset() (later episodes)."""
+    actions: list[int] = field(default_factory=list)
+    """Actions taken so far (replayed on resume; env.step draws nothing from the env RNG)."""
+    ret: float = 0.0
+    tau_counts: list[int] = field(default_factory=list)
+    fallbacks: int = 0
+    finished: bool = False
+    """The episode has ended (the budget ran out at its last step)."""
+    obs: list[float] = field(default_factory=list)
+    """The current observation (checked after the replay on resume)."""
+
+
+def _timing() -> dict[str, float]:
+    return {"act": 0.0, "env": 0.0, "learn": 0.0, "eval": 0.0, "checkpoint": 0.0}
+
+
+@dataclass
+class TrainingProgress:
+    """Everything of the training loop that ``latest`` saves and a resumed run restores."""
+
+    schedule: Schedule
+    curriculum: Curriculum
+    env_steps: int = 0
+    episodes: int = 0
+    wall_time: float = 0.0
+    """Wall time of the run so far, s (summed over resumptions)."""
+    cpu_time: float = 0.0
+    """Process CPU time of the run, s (what the wall time would be on an idle core)."""
+    timing: dict[str, float] = field(default_factory=_timing)
+    """Wall time by part of the loop (act, env, learn, eval, checkpoint), s."""
+    recent_returns: deque[float] = field(default_factory=lambda: deque(maxlen=SUCCESS_WINDOW))
+    recent_success: deque[int] = field(default_factory=lambda: deque(maxlen=SUCCESS_WINDOW))
+    loss_acc: dict[str, list[float]] = field(default_factory=dict)
+    """Tag -> [sum, count] of the per-update losses since the last scalar log."""
+    best: dict[str, Any] | None = None
+    """The best greedy evaluation so far (the one saved as checkpoints/best)."""
+    evals: list[dict[str, Any]] = field(default_factory=list)
+    episode: EpisodeProgress = field(default_factory=EpisodeProgress)
+    obs: np.ndarray = field(default_factory=lambda: np.zeros(12, dtype=np.float32))
+    """The current observation."""
+
+    @classmethod
+    def start(cls, config: TrainConfig) -> TrainingProgress:
+        """The progress of a new run of ``config``."""
+        return cls(Schedule.of(config), Curriculum.of(config))
+
+    def to_dict(self, log_sizes: Mapping[str, int]) -> dict[str, Any]:
+        """JSON-ready state (the trainer part of ``training_state.json``); ``log_sizes``:
+        the byte size of each log file at this point, to truncate them to on resume."""
+        return {
+            "env_steps": self.env_steps,
+            "episodes": self.episodes,
+            "wall_time": self.wall_time,
+            "cpu_time": self.cpu_time,
+            "timing": self.timing,
+            **self.schedule.to_dict(),
+            "history": self.curriculum.to_dict(),
+            "recent_returns": list(self.recent_returns),
+            "recent_success": list(self.recent_success),
+            "loss_acc": self.loss_acc,
+            "best": self.best,
+            "evals": self.evals,
+            "episode": asdict(self.episode) | {"obs": [float(v) for v in self.obs]},
+            "log_sizes": dict(log_sizes),
+        }
+
+    def load(self, state: Mapping[str, Any]) -> None:
+        """Restore the state saved by ``to_dict`` (the observation comes from the replay)."""
+        self.env_steps = int(state["env_steps"])
+        self.episodes = int(state["episodes"])
+        self.wall_time = float(state["wall_time"])
+        self.cpu_time = float(state.get("cpu_time", 0.0))
+        self.timing = dict(state["timing"])
+        self.schedule.load(state)
+        self.curriculum.load(state["history"])
+        self.recent_returns = deque(state["recent_returns"], maxlen=SUCCESS_WINDOW)
+        self.recent_success = deque(state["recent_success"], maxlen=SUCCESS_WINDOW)
+        self.loss_acc = {k: list(v) for k, v in state["loss_acc"].items()}
+        self.best = state["best"]
+        self.evals = list(state["evals"])
+        self.episode = EpisodeProgress(**state["episode"])
+
+
+def truncate_logs(out: Path, log_sizes: Mapping[str, int]) -> None:
+    """Cut each log in ``out`` back to its size at the checkpoint."""
+    for name, size in log_sizes.items():
+        path = out / name
+        if path.exists() and path.stat().st_size > size:
+            with path.open("r+b") as fh:  # drop what was logged after the checkpoint
+                fh.truncate(size)
+
+
+def replay_episode(env: D3DWAEnv, ep: EpisodeProgress, where: Path) -> np.ndarray | None:
+    """Re-run the saved episode in progress and return its current observation.
+
+    The env's curriculum weights must be those of the checkpoint (the reset draws the
+    task with them). None if that episode had already finished (the env RNG is then
+    where the next reset expects it). TrainingError if the replay does not reproduce the
+    saved observation (the simulator was not deterministic); ``where`` names the checkpoint.
+    """
+    if ep.reset_seed is not None:
+        obs, _ = env.reset(seed=ep.reset_seed)
+    else:
+        env.np_random = np.random.Generator(np.random.PCG64(0))
+        env.np_random.bit_generator.state = ep.rng_before
+        obs, _ = env.reset()
+    if ep.finished:
+        return None
+    for i, a in enumerate(ep.actions):
+        obs, _, terminated, truncated, _ = env.step(a)
+        if (terminated or truncated) and i + 1 < len(ep.actions):
+            break
+    if not np.array_equal(obs, np.asarray(ep.obs, dtype=np.float32)):
+        raise TrainingError(
+            f"{where}: replaying the episode in progress ({len(ep.actions)} steps on "
+            f"{env.world.name if env.world else '?'}) did not reproduce its saved observation"
+        )
+    return obs
