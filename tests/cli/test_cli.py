@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import csv
 import json
+import subprocess
+import sys
 
 import pytest
 import yaml
 
-from d3dwa_bullet.cli.app import main
+from d3dwa_bullet.cli.app import build_parser, main
+from d3dwa_bullet.cli.options import parse_floats, split_list
+from d3dwa_bullet.errors import ConfigError
 
 TINY = {
     "name": "tiny",
@@ -156,3 +160,59 @@ def test_malformed_world_file_names_file_and_field(tmp_path, capsys):
     assert main(["run", "--world", str(path), "--method", "dwa1"]) == 2
     err = capsys.readouterr().err
     assert "bad.yaml" in err and "obstacles[0]" in err and "size" in err
+
+
+HEAVY = ("pybullet", "torch", "matplotlib", "numba")
+
+
+def heavy_modules_after(statement: str) -> list[str]:
+    """The HEAVY modules a fresh interpreter holds after statement."""
+    probe = f"import json, sys; {statement}; print(json.dumps([m for m in {HEAVY!r} if m in sys.modules]))"
+    done = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, check=True, timeout=120
+    )
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_help_and_worlds_start_without_the_simulator_torch_or_matplotlib():
+    """What the commands' function-level imports are for: a quick `d3dwa --help` / `worlds`."""
+    assert (
+        heavy_modules_after("from d3dwa_bullet.cli.app import build_parser; build_parser()") == []
+    )
+    assert heavy_modules_after("from d3dwa_bullet.cli.app import main; main(['worlds'])") == []
+
+
+def test_the_probe_sees_heavy_modules_when_a_command_loads_them():
+    """The check above could fail: running an episode does bring pybullet in."""
+    loaded = heavy_modules_after(
+        "from d3dwa_bullet.cli.app import main; main(['run', '--world', 'R1', '--method', 'dwa1', "
+        "'--time-limit', '0.2', '--json'])"
+    )
+    assert "pybullet" in loaded and "numba" in loaded
+
+
+def test_every_command_is_wired_to_its_function():
+    parser = build_parser()
+    commands = {"worlds": [], "report": ["DIR"], "replay": ["b", "--out", "o"],
+                "compare-scans": ["a", "b"], "record": ["--world", "R1", "--method", "dwa1", "--out", "o"],
+                "run": ["--world", "R1", "--method", "dwa1"], "eval": [], "sweep": ["--out", "o"],
+                "train": []}  # fmt: skip
+    for name, rest in commands.items():
+        func = parser.parse_args([name, *rest]).func
+        expected = "cmd_compare" if name == "compare-scans" else f"cmd_{name}"
+        assert func.__name__ == expected, name
+
+
+def test_option_values_parse_or_name_the_option():
+    assert parse_floats("1,2.5,-3", 3, "--start X,Y,YAW") == (1.0, 2.5, -3.0)
+    assert split_list(" dwa1, ,dwa3,") == ["dwa1", "dwa3"]
+    for bad in ("1,2", "1,x,3", ""):
+        with pytest.raises(ConfigError, match=r"--start X,Y,YAW must be 3 comma-separated"):
+            parse_floats(bad, 3, "--start X,Y,YAW")
+
+
+def test_replay_refuses_a_malformed_goal_with_one_line(tmp_path, capsys):
+    args = ["replay", str(tmp_path / "none.bag"), "--out", str(tmp_path / "o"), "--goal", "1"]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == "d3dwa: error: --goal must be 2 comma-separated numbers, got '1'"

@@ -118,14 +118,22 @@ def test_goal_to_the_left_turns_left():
     assert res.w > 0
 
 
-def test_obstacle_dead_ahead_is_never_chosen_into():
-    wall = np.column_stack((np.full(50, 0.45), np.linspace(-1, 1, 50)))
-    res = plan((0.3, 0.0), wall, (3.0, 0.0), PlannerAction(1.0, 1.0, 3.0, 4.0))
+@pytest.mark.parametrize(("distance", "v0"), [(0.45, 0.2), (0.5, 0.1), (0.6, 0.2)])
+def test_obstacle_dead_ahead_is_never_chosen_into(distance, v0):
+    """A wall across the way, near enough that driving on means hitting it, far enough (and
+    slow enough) that some turn is admissible: the planner must choose, not fall back."""
+    wall = np.column_stack((np.full(50, distance), np.linspace(-1, 1, 50)))
+    res = plan((v0, 0.0), wall, (3.0, 0.0), PlannerAction(1.0, 1.0, 3.0, 4.0))
+    assert not res.fallback and res.index >= 0
+    # The w grid has no exact 0: the samples nearest to straight on are the two closest to it.
+    w = np.abs(res.samples[:, 1])
+    straight = w <= w.min() + 1e-12
+    moving = straight & (res.samples[:, 0] > 0.05)
+    assert moving.sum() >= 2
     # Straight on at any speed would bring the front circle within r + m of the wall.
-    straight = np.abs(res.samples[:, 1]) < 1e-9
-    assert not res.admissible[straight & (res.samples[:, 0] > 0.05)].any()
-    if not res.fallback:
-        assert res.clearance[res.index] > PlannerParams().admissible_clearance
+    assert not res.admissible[moving].any()
+    assert res.clearance[res.index] > PlannerParams().admissible_clearance
+    assert abs(res.w) > w.min()  # the chosen command turns away
 
 
 def test_boxed_in_robot_falls_back_to_the_safest_motion_and_says_so():
@@ -193,8 +201,8 @@ def test_fast_planner_matches_brute_force_reference(seed):
     assert (fast.admissible == admissible).all()
     # Clearance equals the reference wherever it is reported in full (admissible samples).
     assert np.abs(fast.clearance[admissible] - clearance[admissible]).max(initial=0.0) < 1e-6
-    if index >= 0:
-        assert (fast.v, fast.w) == pytest.approx((v, w))
+    assert index >= 0 and not fast.fallback  # these scenes have a choice: the check below runs
+    assert (fast.v, fast.w) == pytest.approx((v, w))
 
 
 def test_fast_planner_matches_reference_at_full_size():

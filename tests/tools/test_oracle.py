@@ -7,14 +7,15 @@ import math
 
 import numpy as np
 import pytest
+import yaml
 
 from d3dwa_bullet.episode import EpisodeConfig
+from d3dwa_bullet.geometry import arc_step
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
 from d3dwa_bullet.planning.observation import goal_in_body
 from d3dwa_bullet.planning.planner import plan
-from d3dwa_bullet.sim.odometry import arc_step
-from d3dwa_bullet.world.grid import geodesic_field
 from d3dwa_bullet.world.model import Box, World
+from d3dwa_bullet.world.routes import geodesic_field
 from tools.experiments import probe_actions
 from tools.experiments.oracle import ORACLE, fixed_action_outcome, oracle_choice, run_oracle
 
@@ -113,6 +114,25 @@ def test_probe_script_counts_fixed_actions_and_the_oracle(one_second_world, caps
     assert row["oracle"] == "timeout" and row["oracle_time_s"] is None
     x, y = row["oracle_final_xy"]
     assert 0.0 < x < 0.5 and abs(y) < 0.2  # 10 steps of at most 0.04 m from the start
+
+
+def test_probe_script_reports_an_oracle_that_reaches_the_goal(tmp_path, capsys):
+    # an open floor with the goal 1 m ahead: every probe has time to get there
+    world = {"name": "open1", "group": "custom", "description": "empty floor",
+             "start": [0.0, 0.0, 0.0], "goal": [1.0, 0.0], "time_limit": 20.0, "obstacles": []}  # fmt: skip
+    path = tmp_path / "open1.yaml"
+    path.write_text(yaml.safe_dump(world))
+    assert _script().main([str(path), "--actions", "weights", "--json"]) == 0
+    (row,) = json.loads(capsys.readouterr().out)
+    assert row["world"] == str(path)
+    assert row["oracle"] == "goal"
+    assert 0.0 < row["oracle_time_s"] < 20.0
+    x, y = row["oracle_final_xy"]
+    assert math.hypot(x - 1.0, y) < 0.2  # stopped at the goal, within its tolerance
+    assert row["fixed_collision"] == 0 and 0 < row["fixed_goal"] <= row["fixed_total"] == 25
+    fastest = row["fastest_fixed"]
+    assert fastest is not None and fastest["action"] in row["fixed_reaching"]
+    assert 0.0 < fastest["time_s"] < 20.0
 
 
 def test_probe_script_rejects_an_unknown_world(capsys):
