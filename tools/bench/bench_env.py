@@ -6,7 +6,7 @@ this process (the figure that stays meaningful when other work shares the cores)
 whole run is repeated (--repeats, default 3) and the median repeat is reported, with the
 slowest and fastest beside it: on a shared virtual machine single runs vary by +-10 %.
 
-    python scripts/bench_env.py --json
+    python -m tools.bench.bench_env --json
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import time
 
 from d3dwa_bullet.episode import Episode
 from d3dwa_bullet.methods import make_controller
-from d3dwa_bullet.world.model import load_world
+from d3dwa_bullet.world.registry import load_world
 
 
 def bench(worlds: list[str], steps: int, method: str) -> dict:

@@ -2,10 +2,10 @@
 
 Scenes are random cluttered scans at the default beam count (240 deg at 0.5 deg). Prints
 the median and p95 latency, and with --check also the agreement with the brute-force
-reference (tests/reference_planner.py) and the lattice's deviation from continuous geometry.
+reference (tests/support/reference_planner.py) and the lattice's deviation from continuous geometry.
 
-    python scripts/bench_planner.py --json
-    python scripts/bench_planner.py --check 1000
+    python -m tools.bench.bench_planner --json
+    python -m tools.bench.bench_planner --check 1000
 """
 
 from __future__ import annotations
@@ -67,6 +67,7 @@ def bench(n: int, seed: int, tau: float) -> dict:
 
 def check(n: int, seed: int) -> dict:
     """Agreement with the brute-force reference over n random scenes, actions and states."""
+    # tests/ is no dependency of the tool: only --check needs it (from the repository root)
     from tests.support.reference_planner import reference_plan
 
     rng = np.random.default_rng(seed)

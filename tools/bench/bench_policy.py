@@ -4,7 +4,7 @@ Loads each learned method's shipped checkpoint (``policies/<method>``, or --poli
 method) and times single calls on random observations in [0, 1] (angles in [-1, 1]), after
 a warm-up. Prints the median and p95 per method.
 
-    python scripts/bench_policy.py --json
+    python -m tools.bench.bench_policy --json
 """
 
 from __future__ import annotations

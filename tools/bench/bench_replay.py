@@ -9,8 +9,8 @@ fixed cost per bag, not per scan). Loading the policy is not timed.
 The policy is the method's shipped checkpoint (``policies/<method>``) or ``--policy``; if
 neither exists, an untrained D3QN of the same shape stands in (same cost per scan).
 
-    python scripts/bench_replay.py --json
-    python scripts/bench_replay.py --bag my_run/ --method dwa3 --repeats 5
+    python -m tools.bench.bench_replay --json
+    python -m tools.bench.bench_replay --bag my_run/ --method dwa3 --repeats 5
 
 ``scans_per_s`` is the best of ``--repeats`` runs (like ``timeit``: the run least disturbed
 by other load on the machine); the median and the CPU-time rate are printed too. It includes
@@ -37,6 +37,7 @@ from transfer.sim_bridge import make_step_fn, record_episode
 
 def stand_in_policy(method: str, directory: Path) -> Path:
     """An untrained D3QN checkpoint with the method's action set (default network shape)."""
+    # start-up cost: torch (~1 s) is needed only when no checkpoint exists to replay with
     from d3dwa_bullet.learning.agents import D3QNAgent, save_checkpoint
 
     return save_checkpoint(directory / method, D3QNAgent(LEARNED[method]), method=method)

@@ -1,13 +1,14 @@
 """Benchmark the sweep's parallel speed-up: the same small sweep with 1 and with N workers.
 
 Both runs write fresh results directories and must give identical rows (compared
-order-independently); the speed-up is t1 / tN of the wall-clock times. Other work on the
+order-independently, ``identical_rows``) and, once complete, the same results.csv bytes
+(``identical_csv_bytes``: a complete run is rewritten in job order); the speed-up is t1 / tN of the wall-clock times. Other work on the
 cores (e.g. a training run) lowers it, so the load average is reported, and so is the CPU
 time each run got (this process plus its finished workers): ``cpu_util`` = CPU s / wall s
 is about 1 for one worker and about N for N workers on idle cores, whatever the episodes.
 
-    python scripts/bench_sweep.py --json        # {"t1_s", "t2_s", "speedup", ...}
-    python scripts/bench_sweep.py --quick       # 10 s episodes, for a smoke test
+    python -m tools.bench.bench_sweep --json   # {"t1_s", "t2_s", "speedup", ...}
+    python -m tools.bench.bench_sweep --quick  # 10 s episodes, for a smoke test
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import time
 from pathlib import Path
 
 from d3dwa_bullet.episode import EpisodeConfig
-from d3dwa_bullet.evaluation.jobs import CSV_FIELDS
+from d3dwa_bullet.evaluation.results import CSV_FIELDS
 from d3dwa_bullet.evaluation.sweep import SweepSettings, read_sweep, run_sweep
 
 #: The benchmark's sweep: 3 methods x 3 worlds (R1, R2, one unseen R1-style layout) x 3
@@ -64,6 +65,8 @@ def run(workers: int = 2, time_limit: float | None = None, root: str | None = No
             times[n], cpu[n] = time.perf_counter() - t0, cpu_seconds() - c0
         load_after = os.getloadavg()[0]
         identical = rows_signature(Path(tmp) / "w1") == rows_signature(Path(tmp) / f"w{workers}")
+        csv_1, csv_n = (Path(tmp) / f"w{n}" / "results.csv" for n in (1, workers))
+        same_bytes = csv_1.read_bytes() == csv_n.read_bytes()
         episodes = len(read_sweep(Path(tmp) / "w1"))
     return {
         "t1_s": round(times[1], 1),
@@ -74,6 +77,7 @@ def run(workers: int = 2, time_limit: float | None = None, root: str | None = No
         "workers": workers,
         "episodes": episodes,
         "identical_rows": identical,
+        "identical_csv_bytes": same_bytes,
         "cpus": os.cpu_count(),
         "load_avg_1m_before": round(load_before, 2),
         "load_avg_1m_after": round(load_after, 2),

@@ -1,6 +1,6 @@
 """Throughput of the training loop: env steps/s and D3QN gradient updates/s.
 
-    python scripts/bench_train.py --json
+    python -m tools.bench.bench_train --json
     {"env_steps_per_s": ..., "updates_per_s": ..., "loop_steps_per_s": ..., ...}
 
 Runs ``train()`` for a short budget (default 2000 control steps on the committed d3dwa

@@ -8,8 +8,8 @@ RMSEs pool every sample of every seed (each step weighs the same); the per-seed 
 reported too, since the issue-3 target (EKF position RMSE <= half the odometry's) should
 hold seed by seed, not only on average.
 
-    python scripts/eval_estimator.py --json                   # TS1, dwa3, `real`, seeds 0..4
-    python scripts/eval_estimator.py --world H3 --seeds 8 --profile harsh
+    python -m tools.bench.eval_estimator --json  # TS1, dwa3, `real`, seeds 0..4
+    python -m tools.bench.eval_estimator --world H3 --seeds 8 --profile harsh
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.methods import make_controller
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult
-from d3dwa_bullet.world.model import load_world
+from d3dwa_bullet.world.registry import load_world
 
 #: The issue-3 target: EKF position RMSE at most this fraction of raw odometry's.
 TARGET_RATIO = 0.5

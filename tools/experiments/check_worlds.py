@@ -6,9 +6,9 @@ start to goal (8-connected Dijkstra, then line-of-sight smoothing). Prints a tab
 JSON list with ``--json``. With ``--footprint`` it also checks that the planner's
 three-circle footprint can drive the route forward-only with turns in place (slower).
 
-    python scripts/check_worlds.py                 # all shipped worlds
-    python scripts/check_worlds.py --footprint
-    python scripts/check_worlds.py my.world --goal 3 0 --json
+    python -m tools.experiments.check_worlds  # all shipped worlds
+    python -m tools.experiments.check_worlds --footprint
+    python -m tools.experiments.check_worlds my.world --goal 3 0 --json
 
 Exit status 1 if any world has no route.
 """
@@ -23,14 +23,11 @@ from collections.abc import Sequence
 from typing import Any
 
 from d3dwa_bullet.errors import D3DWAError
-from d3dwa_bullet.world.grid import (
-    DEFAULT_INFLATION,
-    DEFAULT_RESOLUTION,
-    REFERENCE_PATH_LENGTHS,
-    footprint_reachable,
-    shortest_path,
-)
-from d3dwa_bullet.world.model import World, list_worlds, load_world_file
+from d3dwa_bullet.world.grid import DEFAULT_INFLATION, DEFAULT_RESOLUTION
+from d3dwa_bullet.world.model import World
+from d3dwa_bullet.world.reachability import footprint_reachable
+from d3dwa_bullet.world.registry import list_worlds, load_world_file
+from d3dwa_bullet.world.routes import REFERENCE_PATH_LENGTHS, shortest_path
 
 
 def check_world(

@@ -10,7 +10,7 @@ not learned it" from "these choices cannot do it":
     a greedy map-aware chooser: at every step it plans with *every* action, rolls each
     resulting command out as a unicycle over that action's tau from the estimated pose, and
     executes the action whose end point has the shortest route to the goal on the inflated
-    map (:func:`~d3dwa_bullet.world_grid.geodesic_field`). It sees the map, which no policy
+    map (:func:`~d3dwa_bullet.world.routes.geodesic_field`). It sees the map, which no policy
     does, so it is an optimistic probe, not a method: it never enters a results table.
 
 Both are ordinary episodes (same simulator, planner and termination), so their outcome,
@@ -22,13 +22,14 @@ from __future__ import annotations
 import numpy as np
 
 from d3dwa_bullet.episode import Episode, EpisodeConfig, EpisodeResult, run_episode
+from d3dwa_bullet.geometry import arc_step
 from d3dwa_bullet.methods import Controller
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.observation import goal_in_body
 from d3dwa_bullet.planning.planner import plan
-from d3dwa_bullet.sim.odometry import arc_step
-from d3dwa_bullet.world.grid import Grid, geodesic_field
+from d3dwa_bullet.world.grid import Grid
 from d3dwa_bullet.world.model import World
+from d3dwa_bullet.world.routes import geodesic_field
 
 ORACLE = "oracle"
 """Method name of the oracle's episodes."""

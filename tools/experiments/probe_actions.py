@@ -1,15 +1,15 @@
 """Probe what the action set can do in a world: every fixed action, and a map-aware oracle.
 
 For each world, runs one noise-free episode per action of the set with that action held at
-every step, and one episode of the greedy geodesic oracle (``d3dwa_bullet.oracle``), which
-plans with every action at every step and keeps the one whose command ends nearest the goal
-along the inflated map. A world that neither reaches says the DWA with these (weights, tau)
+every step, and one episode of the greedy geodesic oracle (:mod:`tools.experiments.oracle`),
+which plans with every action at every step and keeps the one whose command ends nearest the
+goal along the inflated map. A world that neither reaches says the DWA with these (weights, tau)
 choices is stuck there, whatever a policy learns; one that only the oracle reaches needs
 state-dependent switching; one that many fixed actions reach is a learning problem.
 
-    python scripts/probe_actions.py TS4 H2                    # fixed actions + oracle
-    python scripts/probe_actions.py --no-fixed --workers 2    # oracle only, every shipped world
-    python scripts/probe_actions.py R2 --actions weights --json
+    python -m tools.experiments.probe_actions TS4 H2                  # fixed actions + oracle
+    python -m tools.experiments.probe_actions --no-fixed --workers 2  # the oracle on every world
+    python -m tools.experiments.probe_actions R2 --actions weights --json
 
 Prints a table (or JSON with ``--json``); exit status 2 on bad input.
 """
@@ -22,10 +22,12 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+from tqdm import tqdm
+
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation.backends import run_local
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
-from d3dwa_bullet.world.model import list_worlds, load_world
+from d3dwa_bullet.world.registry import list_worlds, load_world
 from tools.experiments.oracle import ORACLE, fixed_action_outcome, run_oracle
 
 ACTION_SETS = {"full": ACTIONS_FULL, "weights": ACTIONS_WEIGHTS_ONLY}
@@ -49,8 +51,6 @@ def probe(
     workers: int = 1, progress: bool = True,
 ) -> list[dict[str, Any]]:  # fmt: skip
     """One row per world: fixed actions that reach the goal, the fastest of them, the oracle."""
-    from tqdm import tqdm
-
     actions = ACTION_SETS[set_name]
     jobs = [(w, ORACLE, -1) for w in worlds]
     if fixed:

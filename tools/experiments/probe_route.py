@@ -1,13 +1,13 @@
 """Where along a world's route does a method get through? Start it part-way and see.
 
-For each fraction of the world's route (``d3dwa_bullet.route_start``: the shortest route
+For each fraction of the world's route (``d3dwa_bullet.world.route_start``: the shortest route
 keeping 0.30 m from obstacles), runs one noise-free episode of each method starting at
 that point, facing along the route, towards the world's own goal. A method that reaches
 the goal from 0.4 but not from 0.3 is stuck in the stretch between those points.
 
-    python scripts/probe_route.py TS4                              # shipped d3dwa
-    python scripts/probe_route.py TS4 --methods d3dwa,dwa3 --fractions 0,0.25,0.5
-    python scripts/probe_route.py TS4 --policy runs/x/policy --json
+    python -m tools.experiments.probe_route TS4  # shipped d3dwa
+    python -m tools.experiments.probe_route TS4 --methods d3dwa,dwa3 --fractions 0,0.25,0.5
+    python -m tools.experiments.probe_route TS4 --policy runs/x/policy --json
 
 Prints a table (or JSON with ``--json``); exit status 2 on bad input.
 """
@@ -26,7 +26,8 @@ from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation.backends import run_local
 from d3dwa_bullet.evaluation.jobs import Job, run_job
 from d3dwa_bullet.methods import check_method, make_controller
-from d3dwa_bullet.world.model import World, load_world
+from d3dwa_bullet.world.model import World
+from d3dwa_bullet.world.registry import load_world
 from d3dwa_bullet.world.route_start import route_polyline, route_pose
 
 DEFAULT_FRACTIONS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
