@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.robot import FOOTPRINT_CENTERS_X, FOOTPRINT_RADIUS
 
 
 @dataclass(frozen=True)
@@ -44,10 +45,10 @@ class Footprint:
     farther than r + m from every scan point.
     """
 
-    radius: float = 0.15
+    radius: float = FOOTPRINT_RADIUS
     """Circle radius r, m (the paper's robot radius)."""
-    centers_x: tuple[float, ...] = (-0.0855, 0.0435, 0.1725)
-    """Circle centres on the body x axis, m, base_link frame."""
+    centers_x: tuple[float, ...] = FOOTPRINT_CENTERS_X
+    """Circle centres on the body x axis, m, base_link frame (Kachaka's: d3dwa_bullet.robot)."""
 
     def __post_init__(self) -> None:
         if self.radius <= 0 or not self.centers_x:

@@ -35,7 +35,7 @@ import yaml
 
 from d3dwa_bullet.errors import ConfigError, ProfileError
 from d3dwa_bullet.resources import profiles_dir
-from d3dwa_bullet.sim.noise import (
+from d3dwa_bullet.sim.noise_config import (
     CONFIG_GROUPS,
     INT_PARAMS,
     PARAM_DOMAINS,

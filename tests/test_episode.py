@@ -7,7 +7,8 @@ import pytest
 
 from d3dwa_bullet.episode import Episode, run_episode
 from d3dwa_bullet.methods import FIXED, make_controller
-from d3dwa_bullet.world.model import Cylinder, World, load_world, world_paths
+from d3dwa_bullet.world.model import Cylinder, World
+from d3dwa_bullet.world.registry import load_world, world_paths
 
 
 def test_fixed_baseline_goes_around_a_post_to_the_goal(post_world):

@@ -24,6 +24,7 @@ from typing import Any, Literal
 import numpy as np
 
 from d3dwa_bullet.errors import BagFormatError
+from d3dwa_bullet.robot import IMU_MOUNT, LIDAR_MOUNT
 from d3dwa_bullet.sim.scan import LaserScan
 from transfer.ros_messages import MessageBuilder, default_typestore
 from transfer.topics import (
@@ -50,9 +51,9 @@ class Frames:
     imu: str = "imu_link"
 
 
-#: Kachaka lidar and IMU positions in base_link, m (SPEC section 3).
-LIDAR_MOUNT_XYZ = (0.156, 0.0, 0.105)
-IMU_MOUNT_XYZ = (0.076, -0.066, 0.051)
+#: Kachaka lidar and IMU positions in base_link, m (d3dwa_bullet.robot).
+LIDAR_MOUNT_XYZ = LIDAR_MOUNT
+IMU_MOUNT_XYZ = IMU_MOUNT
 
 
 def quantize_scan(scan: LaserScan) -> LaserScan:

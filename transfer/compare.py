@@ -23,11 +23,11 @@ from typing import Any
 
 import numpy as np
 
+from d3dwa_bullet.geometry import wrap_angles
 from d3dwa_bullet.params import ObservationParams
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D
 from transfer.bag_reader import read_bag
 from transfer.topics import TopicMap
-from transfer.transforms import wrap_angles
 
 READING_CLASSES = ("nan", "pos_inf", "neg_inf", "zero", "out_of_range")
 _MAD_TO_STD = 1.4826

@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from d3dwa_bullet.robot import LIDAR_MOUNT
 from d3dwa_bullet.sim.scan import Pose2D
 from transfer.transforms import TransformTree, pose2d_from_matrix
 
 #: Frames tried, in order, as the robot body frame when looking up the lidar mount.
 BASE_FRAMES = ("base_link", "base_footprint")
-#: Kachaka's lidar mount in base_link (SPEC section 3), used when a bag has no transform.
-KACHAKA_LIDAR_MOUNT = Pose2D(0.156, 0.0, 0.0)
+#: Kachaka's lidar mount in base_link (d3dwa_bullet.robot), used when a bag has no transform.
+KACHAKA_LIDAR_MOUNT = Pose2D(LIDAR_MOUNT[0], LIDAR_MOUNT[1], 0.0)
 
 
 def find_lidar_mount(tree: TransformTree, scan_frame: str) -> tuple[Pose2D, bool, str]:

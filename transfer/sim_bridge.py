@@ -44,11 +44,13 @@ import numpy as np
 from d3dwa_bullet.episode import Episode, EpisodeConfig, observation_of, plan_from, run_episode
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.jobs import make_noise
+from d3dwa_bullet.geometry import wrap_angle_modular
 from d3dwa_bullet.methods import Controller, make_controller
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult
 from d3dwa_bullet.sim.estimator import EstimatorConfig, PoseEstimator
-from d3dwa_bullet.sim.noise import NoiseModel, wrap_angle
-from d3dwa_bullet.world.model import World, load_world
+from d3dwa_bullet.sim.noise import NoiseModel
+from d3dwa_bullet.world.model import World
+from d3dwa_bullet.world.registry import load_world
 from transfer.replay_step import ScanStep, SkipScan, StepOutput
 
 Estimator = Literal["odometry", "ekf"]
@@ -192,7 +194,7 @@ def mean_body_rates(start: Pose, end: Pose, dt: float) -> Twist:
     The inverse of ``odometry.arc_step`` (sideways motion is dropped): what perfect wheel
     encoders and a perfect gyro, averaged over the period, report.
     """
-    w = wrap_angle(end[2] - start[2]) / dt
+    w = wrap_angle_modular(end[2] - start[2]) / dt
     half = 0.5 * w * dt
     mid = start[2] + half
     along = (end[0] - start[0]) * math.cos(mid) + (end[1] - start[1]) * math.sin(mid)

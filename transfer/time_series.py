@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from transfer.transforms import wrap_angles
+from d3dwa_bullet.geometry import wrap_angles
 
 
 @dataclass(frozen=True)

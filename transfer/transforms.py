@@ -12,23 +12,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from d3dwa_bullet.geometry import wrap_angle
 from d3dwa_bullet.sim.scan import Pose2D
 
 _MAX_NUDGE_ULP = 3
-
-
-def wrap_angle(a: float) -> float:
-    """Angle in (-pi, pi], rad. Values already in range are returned bit for bit."""
-    if -math.pi < a <= math.pi:
-        return a
-    return a - 2.0 * math.pi * math.ceil((a - math.pi) / (2.0 * math.pi))
-
-
-def wrap_angles(a: np.ndarray) -> np.ndarray:
-    """Vectorised ``wrap_angle``: (N,) rad in (-pi, pi], in-range values untouched."""
-    a = np.asarray(a, dtype=np.float64)
-    inside = (a > -np.pi) & (a <= np.pi)
-    return np.where(inside, a, a - 2.0 * np.pi * np.ceil((a - np.pi) / (2.0 * np.pi)))
 
 
 def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:

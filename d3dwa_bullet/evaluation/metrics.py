@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from d3dwa_bullet.world.model import World, body_outline
+from d3dwa_bullet.geometry import body_outline
+
+if TYPE_CHECKING:  # only for the annotation: metrics import no world or simulator module
+    from d3dwa_bullet.world.model import World
 
 OUTCOMES = ("goal", "collision", "timeout")
 

@@ -1,7 +1,7 @@
 """Pose and velocity estimation: an EKF over [x, y, yaw, v, w] (SPEC section 7).
 
 Prediction is the unicycle model under constant (v, w), integrated exactly along the arc
-(:func:`~d3dwa_bullet.odometry.arc_step`) with its analytic Jacobian; process noise is
+(:func:`~d3dwa_bullet.geometry.arc_step`) with its analytic Jacobian; process noise is
 white acceleration on v and w plus a small position/heading random walk for what the
 model misses (slip, bumps). Updates: wheel-odometry velocities (v, w), gyro (w), and a
 low-rate absolute pose fix (x, y, yaw) whose yaw innovation is wrapped to [-pi, pi).
@@ -24,8 +24,7 @@ import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
 from d3dwa_bullet.errors import ConfigError, EstimatorError
-from d3dwa_bullet.sim.noise import wrap_angle
-from d3dwa_bullet.sim.odometry import arc_step
+from d3dwa_bullet.geometry import arc_step, wrap_angle_modular
 
 X, Y, YAW, V, W = range(5)
 _H_ODOM = np.zeros((2, 5))
@@ -98,7 +97,7 @@ class _UnicycleEKF(ExtendedKalmanFilter):
     def predict_x(self, u: object = 0) -> None:
         x, y, yaw, v, w = self.x[:, 0]
         nx, ny, nyaw = arc_step(x, y, yaw, v, w, self.dt)
-        self.x = np.array([[nx], [ny], [wrap_angle(nyaw)], [v], [w]])
+        self.x = np.array([[nx], [ny], [wrap_angle_modular(nyaw)], [v], [w]])
 
 
 def unicycle_jacobian(state: np.ndarray, dt: float) -> np.ndarray:
@@ -128,7 +127,7 @@ def unicycle_jacobian(state: np.ndarray, dt: float) -> np.ndarray:
 
 def _residual_fix(z: np.ndarray, hx: np.ndarray) -> np.ndarray:
     r = z - hx
-    r[2, 0] = wrap_angle(float(r[2, 0]))
+    r[2, 0] = wrap_angle_modular(float(r[2, 0]))
     return r
 
 
@@ -163,7 +162,7 @@ class PoseEstimator:
         )
         self.t = self._finite("reset", "t", t)
         cfg = self.config
-        self._ekf.x = np.array([[x], [y], [wrap_angle(yaw)], [self._sat_v(v)], [self._sat_w(w)]])
+        self._ekf.x = np.array([[x], [y], [wrap_angle_modular(yaw)], [self._sat_v(v)], [self._sat_w(w)]])
         self._ekf.P = np.diag(
             [
                 cfg.init_pos_std**2,
@@ -240,7 +239,7 @@ class PoseEstimator:
         """Fuse an absolute pose fix (x, y, yaw), m/rad; the yaw innovation is wrapped."""
         x, y, yaw = self._positions("update_pose_fix", (x, y, yaw))
         self._ekf.update(
-            np.array([[x], [y], [wrap_angle(yaw)]]),
+            np.array([[x], [y], [wrap_angle_modular(yaw)]]),
             lambda _: _H_FIX,
             lambda s: _H_FIX @ s,
             R=self._r_fix,
@@ -284,7 +283,7 @@ class PoseEstimator:
         cfg = self.config
         if not (np.isfinite(ekf.x).all() and np.isfinite(ekf.P).all()):
             raise EstimatorError(f"{where}: filter diverged (state {ekf.x[:, 0].tolist()})")
-        ekf.x[YAW, 0] = wrap_angle(float(ekf.x[YAW, 0]))
+        ekf.x[YAW, 0] = wrap_angle_modular(float(ekf.x[YAW, 0]))
         ekf.x[V, 0] = self._sat_v(float(ekf.x[V, 0]))
         ekf.x[W, 0] = self._sat_w(float(ekf.x[W, 0]))
         P = 0.5 * (ekf.P + ekf.P.T)

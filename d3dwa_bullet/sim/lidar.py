@@ -10,6 +10,7 @@ import numpy as np
 import pybullet as p
 
 from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.robot import LIDAR_MOUNT
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D
 
 
@@ -25,10 +26,10 @@ class LidarParams:
     """Closest usable return, m."""
     range_max: float = 10.0
     """Farthest return, m; beyond it a beam reads +inf (REP-117 "no return")."""
-    mount_x: float = 0.156
-    mount_y: float = 0.0
-    mount_z: float = 0.105
-    """Lidar origin in base_link, m."""
+    mount_x: float = LIDAR_MOUNT[0]
+    mount_y: float = LIDAR_MOUNT[1]
+    mount_z: float = LIDAR_MOUNT[2]
+    """Lidar origin in base_link, m (default Kachaka's, :mod:`d3dwa_bullet.robot`)."""
 
     def __post_init__(self) -> None:
         if not (0 < self.fov <= 2 * math.pi) or self.increment <= 0:

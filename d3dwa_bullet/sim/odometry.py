@@ -2,8 +2,9 @@
 
 The robot believes its wheels have radius ``wheel_radius * scale_left/right`` and its track is
 ``track * track_scale``, where the scales are this episode's systematic calibration errors
-(``1 + N(0, std)``, see :class:`~d3dwa_bullet.noise.OdometryConfig`). The pose is integrated
-exactly along the constant-(v, w) arc of each update, then a random walk is added to it.
+(``1 + N(0, std)``, see :class:`~d3dwa_bullet.sim.noise_config.OdometryConfig`). The pose is
+integrated exactly along the constant-(v, w) arc of each update
+(:func:`~d3dwa_bullet.geometry.arc_step`), then a random walk is added to it.
 """
 
 from __future__ import annotations
@@ -13,7 +14,9 @@ import math
 import numpy as np
 
 from d3dwa_bullet.errors import ConfigError, EstimatorError
-from d3dwa_bullet.sim.noise import OdometryConfig, wrap_angle
+from d3dwa_bullet.geometry import arc_step, wrap_angle_modular
+from d3dwa_bullet.robot import TRACK, WHEEL_RADIUS
+from d3dwa_bullet.sim.noise_config import OdometryConfig
 
 #: Sampled geometry scales are clipped here so a wild std can never flip or zero a wheel.
 SCALE_CLIP = (0.5, 1.5)
@@ -21,32 +24,18 @@ SCALE_CLIP = (0.5, 1.5)
 NO_ERRORS = OdometryConfig()
 
 
-def arc_step(
-    x: float, y: float, yaw: float, v: float, w: float, dt: float
-) -> tuple[float, float, float]:
-    """Exact unicycle motion under constant (v, w) for dt seconds; returns (x, y, yaw).
-
-    Uses the chord form ``c = v dt sinc(w dt / 2)`` along the mid-arc heading, which is
-    exact for any w and smooth through w = 0 (straight line).
-    """
-    half = 0.5 * w * dt
-    chord = v * dt * (math.sin(half) / half if abs(half) > 1e-9 else 1.0 - half * half / 6.0)
-    mid = yaw + half
-    return x + chord * math.cos(mid), y + chord * math.sin(mid), yaw + w * dt
-
-
 class WheelOdometry:
     """Dead reckoning from the two drive wheels' encoder speeds.
 
-    wheel_radius, track: the *true* geometry, m (Kachaka: 0.045, 0.200).
+    wheel_radius, track: the *true* geometry, m (default Kachaka's, :mod:`d3dwa_bullet.robot`).
     config: systematic errors and random walk (default: none, exact odometry).
     rng: the odometry stream (``NoiseModel.odometry_rng``); required when config is on.
     """
 
     def __init__(
         self,
-        wheel_radius: float = 0.045,
-        track: float = 0.200,
+        wheel_radius: float = WHEEL_RADIUS,
+        track: float = TRACK,
         config: OdometryConfig = NO_ERRORS,
         rng: np.random.Generator | None = None,
     ):
@@ -107,5 +96,5 @@ class WheelOdometry:
             x += cfg.walk_std * float(e[0])
             y += cfg.walk_std * float(e[1])
             yaw += cfg.yaw_walk_std * float(e[2])
-        self.x, self.y, self.yaw = x, y, wrap_angle(yaw)
+        self.x, self.y, self.yaw = x, y, wrap_angle_modular(yaw)
         return self.x, self.y, self.yaw, self.v, self.w

@@ -34,32 +34,16 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from d3dwa_bullet.geometry import wrap_angle_modular
 from d3dwa_bullet.params import RobotLimits, SimParams
 from d3dwa_bullet.resources import urdf_path
+from d3dwa_bullet.robot import AXLE_HEIGHT, TRACK, WHEEL_RADIUS
 from d3dwa_bullet.sim.estimator import PoseEstimator
 from d3dwa_bullet.sim.lidar import Lidar, LidarParams
-from d3dwa_bullet.sim.noise import NoiseModel, encoder_wheel_speed, ground_wheel_speed, wrap_angle
+from d3dwa_bullet.sim.noise import NoiseModel, encoder_wheel_speed, ground_wheel_speed
 from d3dwa_bullet.sim.odometry import WheelOdometry
 from d3dwa_bullet.sim.scan import LaserScan
-from d3dwa_bullet.world.model import Box, Cylinder, World
-
-CYLINDER_SEGMENTS = 48
-WHEEL_RADIUS = 0.045
-TRACK = 0.200
-AXLE_HEIGHT = WHEEL_RADIUS
-
-
-def obstacle_outline(ob: Box | Cylinder) -> np.ndarray:
-    """Counter-clockwise footprint polygon of an obstacle: (K, 2), m, world frame."""
-    if isinstance(ob, Cylinder):
-        a = 2 * np.pi * np.arange(CYLINDER_SEGMENTS) / CYLINDER_SEGMENTS
-        return np.column_stack(
-            (ob.center[0] + ob.radius * np.cos(a), ob.center[1] + ob.radius * np.sin(a))
-        )
-    hx, hy = 0.5 * ob.size[0], 0.5 * ob.size[1]
-    local = np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]])
-    c, s = math.cos(ob.yaw), math.sin(ob.yaw)
-    return local @ np.array([[c, s], [-s, c]]) + np.asarray(ob.center)
+from d3dwa_bullet.world.model import Box, Cylinder, World, obstacle_outline
 
 
 @dataclass(frozen=True)
@@ -162,7 +146,7 @@ class Simulator:
 
         Bullet casts rays against triangles far faster than against convex boxes (measured:
         0.9 vs 3.5 ms for 481 beams in TS1), and contacts with a static mesh are exact.
-        Cylinders become prisms of ``CYLINDER_SEGMENTS`` sides (radial error < 0.3 mm).
+        Cylinders become prisms of ``world.model.CYLINDER_SEGMENTS`` sides (radial error < 0.3 mm).
         """
         if not obstacles:
             return []
@@ -265,7 +249,7 @@ class Simulator:
             angles = self._wheel_angles()
             enc = encoder_wheel_speed((angles - self._last_angles) / dt, slip)
             yaw = self.true_pose()[2]
-            w_mean = wrap_angle(yaw - self._last_yaw) / dt
+            w_mean = wrap_angle_modular(yaw - self._last_yaw) / dt
             self._last_angles, self._last_yaw = angles, yaw
             _, _, _, ov, ow = self.odometry.update(float(enc[0]), float(enc[1]), dt)
             self._fuse(self.time, (ov, ow), w_mean)

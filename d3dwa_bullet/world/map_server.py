@@ -12,7 +12,7 @@ are empty space. Image row 0 is the top of the map (largest y).
 
 Occupied pixels of a row are merged into runs, and identical runs of consecutive rows into
 one box, to keep the body count low; each box is rotated by the origin's yaw. Start and
-goal default as in :mod:`~d3dwa_bullet.world_sdf` ((0, 0, 0) -> (1, 0), placeholders to
+goal default as in :mod:`~d3dwa_bullet.world.sdf` ((0, 0, 0) -> (1, 0), placeholders to
 replace with ``World.with_task``).
 """
 

@@ -1,48 +1,27 @@
-"""Worlds: static obstacles, a start pose and a goal.
+"""Worlds: static upright obstacles (boxes and cylinders), a start pose and a goal.
 
-Native format (``worlds/*.yaml``)::
-
-    name: TS1                     # required
-    group: train                  # train | unseen | real | custom
-    description: mostly open ...  # required, one line
-    start: [0.0, 0.0, 0.0]        # x, y (m), yaw (rad)
-    goal: [3.5, 0.5]              # x, y (m)
-    time_limit: 60.0              # optional, s
-    obstacles:                    # boxes, cylinders and wall segments
-      - {type: box, center: [1.0, 0.2], size: [0.4, 0.3], yaw: 0.0, height: 0.5}
-      - {type: cylinder, center: [2.0, -0.3], radius: 0.15, height: 0.5}
-      - {type: wall, start: [-1, 1], end: [5, 1], thickness: 0.1, height: 0.5}
-
-``yaw`` and ``height`` are optional (defaults 0 rad and 0.5 m). A wall is a box from
-``start`` to ``end`` extended by half its thickness at each end, so walls meet at corners.
-Unknown keys are errors (a typo must not silently drop obstacles). Gazebo SDF ``.world`` files and ROS map_server maps (``.yaml`` with an
-``image`` key) load into the same :class:`World`.
+The obstacle maths every other module builds on: signed distance to an obstacle's footprint,
+its axis-aligned extent and its outline polygon, and the check that a task's start leaves
+the robot's body free and its goal outside every obstacle. How worlds are read from files
+is in :mod:`~d3dwa_bullet.world.native` (the YAML format), :mod:`~d3dwa_bullet.world.sdf`,
+:mod:`~d3dwa_bullet.world.map_server` and :mod:`~d3dwa_bullet.world.registry`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from pathlib import Path
-from typing import Any
 
 import numpy as np
-import yaml
 
-from d3dwa_bullet.errors import UnknownNameError, WorldFormatError
-from d3dwa_bullet.resources import worlds_dir
+from d3dwa_bullet.errors import WorldFormatError
+from d3dwa_bullet.geometry import body_outline, circle_polygon, rectangle_corners
+from d3dwa_bullet.world.fields import vector
 
 DEFAULT_HEIGHT = 0.5
-GROUPS = ("train", "unseen", "real", "custom")
-WORLD_KEYS = {"name", "group", "description", "start", "goal", "time_limit", "obstacles"}
-OBSTACLE_KEYS = {
-    "box": {"type", "center", "size", "yaw", "height"},
-    "cylinder": {"type", "center", "radius", "height"},
-    "wall": {"type", "start", "end", "thickness", "height"},
-}
-#: Kachaka's body box in base_link: centre x, half length, half width (SPEC section 3).
-BODY_CENTER_X, BODY_HALF_LENGTH, BODY_HALF_WIDTH = 0.0435, 0.1935, 0.120
+"""Height of an obstacle whose file gives none, m."""
+CYLINDER_SEGMENTS = 48
+"""Sides of the polygon that stands for a cylinder in :func:`obstacle_outline`."""
 
 
 @dataclass(frozen=True)
@@ -90,8 +69,8 @@ class World:
         """A copy with another start, goal or time limit, re-validated."""
         w = replace(
             self,
-            start=self.start if start is None else _vector(start, 3, self.source, "start"),
-            goal=self.goal if goal is None else _vector(goal, 2, self.source, "goal"),
+            start=self.start if start is None else vector(start, 3, self.source, "start"),
+            goal=self.goal if goal is None else vector(goal, 2, self.source, "goal"),
             time_limit=self.time_limit if time_limit is None else float(time_limit),
         )
         validate_task(w)
@@ -113,14 +92,7 @@ class World:
         xs = [self.start[0], self.goal[0]]
         ys = [self.start[1], self.goal[1]]
         for ob in self.obstacles:
-            if isinstance(ob, Cylinder):
-                ext = (ob.radius, ob.radius)
-            else:
-                c, s = abs(math.cos(ob.yaw)), abs(math.sin(ob.yaw))
-                ext = (
-                    0.5 * (ob.size[0] * c + ob.size[1] * s),
-                    0.5 * (ob.size[0] * s + ob.size[1] * c),
-                )
+            ext = obstacle_extent(ob)
             xs += [ob.center[0] - ext[0], ob.center[0] + ext[0]]
             ys += [ob.center[1] - ext[1], ob.center[1] + ext[1]]
         return min(xs) - margin, min(ys) - margin, max(xs) + margin, max(ys) + margin
@@ -139,29 +111,25 @@ def obstacle_distance(ob: Obstacle, pts: np.ndarray) -> np.ndarray:
     return outside + inside
 
 
-def body_outline(poses: Sequence[float] | np.ndarray, samples_per_side: int = 8) -> np.ndarray:
-    """Points on Kachaka's body rectangle at one pose (x, y, yaw) or at (N, 3) poses.
-
-    Returns (4 * samples, 2) for one pose or (N, 4 * samples, 2) for N poses, m, world frame.
-    """
-    t = np.linspace(-1.0, 1.0, samples_per_side, endpoint=False)
-    hl, hw = BODY_HALF_LENGTH, BODY_HALF_WIDTH
-    local = np.concatenate(
-        [
-            np.column_stack((hl * t, np.full_like(t, -hw))),
-            np.column_stack((np.full_like(t, hl), hw * t)),
-            np.column_stack((-hl * t, np.full_like(t, hw))),
-            np.column_stack((np.full_like(t, -hl), -hw * t)),
-        ]
+def obstacle_extent(ob: Obstacle) -> tuple[float, float]:
+    """Half extents (x, y) of an obstacle's axis-aligned bounding box, m."""
+    if isinstance(ob, Cylinder):
+        return ob.radius, ob.radius
+    c, s = abs(math.cos(ob.yaw)), abs(math.sin(ob.yaw))
+    return (
+        0.5 * (ob.size[0] * c + ob.size[1] * s),
+        0.5 * (ob.size[0] * s + ob.size[1] * c),
     )
-    local[:, 0] += BODY_CENTER_X
-    arr = np.asarray(poses, dtype=np.float64)
-    many = arr.reshape(-1, 3)
-    c, s = np.cos(many[:, 2])[:, None], np.sin(many[:, 2])[:, None]
-    wx = many[:, 0:1] + c * local[:, 0] - s * local[:, 1]
-    wy = many[:, 1:2] + s * local[:, 0] + c * local[:, 1]
-    out = np.stack((wx, wy), axis=-1)
-    return out[0] if arr.ndim == 1 else out
+
+
+def obstacle_outline(ob: Obstacle, segments: int = CYLINDER_SEGMENTS) -> np.ndarray:
+    """Counter-clockwise footprint polygon of an obstacle: (K, 2), m, world frame.
+
+    A box gives its 4 corners, a cylinder a regular polygon of ``segments`` sides.
+    """
+    if isinstance(ob, Cylinder):
+        return circle_polygon(ob.center, ob.radius, segments)
+    return rectangle_corners(ob.center, ob.size, ob.yaw)
 
 
 def validate_task(world: World) -> None:
@@ -189,165 +157,3 @@ def validate_task(world: World) -> None:
         raise WorldFormatError(
             f"{world.source}: field 'goal' = {list(world.goal)} lies inside an obstacle"
         )
-
-
-def _field(data: Mapping[str, Any], key: str, where: str) -> Any:
-    if key not in data:
-        raise WorldFormatError(f"{where}: missing field '{key}'")
-    return data[key]
-
-
-def _vector(value: Any, n: int, where: str, key: str) -> tuple[float, ...]:
-    try:
-        vec = tuple(float(v) for v in value)
-    except (TypeError, ValueError) as err:
-        raise WorldFormatError(
-            f"{where}: field '{key}' must be {n} numbers, got {value!r}"
-        ) from err
-    if len(vec) != n or not all(math.isfinite(v) for v in vec):
-        raise WorldFormatError(f"{where}: field '{key}' must be {n} finite numbers, got {value!r}")
-    return vec
-
-
-def _positive(value: Any, where: str, key: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as err:
-        raise WorldFormatError(f"{where}: field '{key}' must be a number, got {value!r}") from err
-    if not (math.isfinite(v) and v > 0):
-        raise WorldFormatError(f"{where}: field '{key}' must be > 0, got {value!r}")
-    return v
-
-
-def parse_obstacle(spec: Any, where: str) -> Obstacle:
-    """One obstacle entry of the native format."""
-    if not isinstance(spec, Mapping):
-        raise WorldFormatError(f"{where}: must be a mapping, got {spec!r}")
-    kind = _field(spec, "type", where)
-    allowed = OBSTACLE_KEYS.get(kind)
-    if allowed is not None and set(spec) - allowed:
-        raise WorldFormatError(
-            f"{where}: unknown field(s) {sorted(set(spec) - allowed)} for a {kind}"
-        )
-    height = _positive(spec.get("height", DEFAULT_HEIGHT), where, "height")
-    if kind == "box":
-        size = _vector(_field(spec, "size", where), 2, where, "size")
-        for v in size:
-            _positive(v, where, "size")
-        return Box(
-            center=_vector(_field(spec, "center", where), 2, where, "center"),  # type: ignore[arg-type]
-            size=size,  # type: ignore[arg-type]
-            yaw=_vector([spec.get("yaw", 0.0)], 1, where, "yaw")[0],
-            height=height,
-        )
-    if kind == "cylinder":
-        return Cylinder(
-            center=_vector(_field(spec, "center", where), 2, where, "center"),  # type: ignore[arg-type]
-            radius=_positive(_field(spec, "radius", where), where, "radius"),
-            height=height,
-        )
-    if kind == "wall":
-        a = np.array(_vector(_field(spec, "start", where), 2, where, "start"))
-        b = np.array(_vector(_field(spec, "end", where), 2, where, "end"))
-        thickness = _positive(spec.get("thickness", 0.1), where, "thickness")
-        length = float(np.hypot(*(b - a)))
-        if length <= 0:
-            raise WorldFormatError(f"{where}: wall 'start' and 'end' coincide at {a.tolist()}")
-        mid = 0.5 * (a + b)
-        return Box(
-            center=(float(mid[0]), float(mid[1])),
-            size=(length + thickness, thickness),
-            yaw=float(math.atan2(b[1] - a[1], b[0] - a[0])),
-            height=height,
-        )
-    raise WorldFormatError(
-        f"{where}: field 'type' = {kind!r} is not a known shape (box, cylinder, wall)"
-    )
-
-
-def world_from_dict(data: Any, source: str) -> World:
-    """Build and validate a World from the native format's mapping."""
-    if not isinstance(data, Mapping):
-        raise WorldFormatError(f"{source}: top level must be a mapping, got {type(data).__name__}")
-    unknown = set(data) - WORLD_KEYS
-    if unknown:
-        raise WorldFormatError(
-            f"{source}: unknown field(s) {sorted(unknown)}; allowed: {sorted(WORLD_KEYS)}"
-        )
-    group = str(data.get("group", "custom"))
-    if group not in GROUPS:
-        raise WorldFormatError(f"{source}: field 'group' = {group!r} is not one of {GROUPS}")
-    obstacles = data.get("obstacles", []) or []
-    if not isinstance(obstacles, list):
-        raise WorldFormatError(f"{source}: field 'obstacles' must be a list, got {obstacles!r}")
-    time_limit = data.get("time_limit")
-    world = World(
-        name=str(_field(data, "name", source)),
-        description=str(_field(data, "description", source)),
-        start=_vector(_field(data, "start", source), 3, source, "start"),  # type: ignore[arg-type]
-        goal=_vector(_field(data, "goal", source), 2, source, "goal"),  # type: ignore[arg-type]
-        obstacles=tuple(
-            parse_obstacle(spec, f"{source}: obstacles[{i}]") for i, spec in enumerate(obstacles)
-        ),
-        group=group,
-        time_limit=None if time_limit is None else _positive(time_limit, source, "time_limit"),
-        source=source,
-    )
-    validate_task(world)
-    return world
-
-
-def load_world_file(path: str | Path) -> World:
-    """Load a native YAML world, a Gazebo SDF .world/.sdf, or a map_server .yaml map."""
-    path = Path(path)
-    if not path.is_file():
-        raise WorldFormatError(f"{path}: no such world file")
-    suffix = path.suffix.lower()
-    if suffix in (".world", ".sdf"):
-        from d3dwa_bullet.world.sdf import load_sdf_world
-
-        return load_sdf_world(path)
-    if suffix not in (".yaml", ".yml"):
-        raise WorldFormatError(f"{path}: unknown world file type {suffix!r} (.yaml, .world, .sdf)")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
-        raise WorldFormatError(f"{path}: not valid YAML: {err}") from err
-    if isinstance(data, Mapping) and "image" in data:
-        from d3dwa_bullet.world.map_server import load_map_world
-
-        return load_map_world(path)
-    return world_from_dict(data, str(path))
-
-
-def world_paths() -> dict[str, Path]:
-    """Shipped native worlds by name, in file order (TS1..TS4, US1, H1..H3, R1..R3)."""
-    order = ["TS1", "TS2", "TS3", "TS4", "US1", "H1", "H2", "H3", "R1", "R2", "R3"]
-    found = {p.stem: p for p in sorted(worlds_dir().glob("*.yaml"))}
-    names = [n for n in order if n in found] + [n for n in found if n not in order]
-    return {n: found[n] for n in names}
-
-
-def list_worlds() -> list[World]:
-    """Every shipped world, loaded."""
-    return [load_world_file(p) for p in world_paths().values()]
-
-
-def load_world(name_or_path: str | Path) -> World:
-    """A shipped world by name (case-insensitive) or any world file by path."""
-    text = str(name_or_path)
-    paths = world_paths()
-    by_upper = {n.upper(): p for n, p in paths.items()}
-    if text.upper() in by_upper:
-        return load_world_file(by_upper[text.upper()])
-    if Path(text).suffix:
-        return load_world_file(text)
-    from d3dwa_bullet.world.generator import generated_world_from_name
-
-    generated = generated_world_from_name(text)
-    if generated is not None:
-        return generated
-    raise UnknownNameError(
-        f"unknown world {text!r}: choose one of {', '.join(paths)}, a generated layout such as "
-        "R2-style-s17, or a path to a world file"
-    )

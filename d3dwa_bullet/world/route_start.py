@@ -16,8 +16,8 @@ import math
 import numpy as np
 
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.world.grid import shortest_path
 from d3dwa_bullet.world.model import World
+from d3dwa_bullet.world.routes import shortest_path
 
 #: Obstacle distance of a route start's base_link, m. The body's farthest corner is
 #: ~0.27 m from base_link (SPEC section 3), so the whole body starts clear of everything.

@@ -12,7 +12,8 @@ import yaml
 
 from d3dwa_bullet.errors import ProfileError
 from d3dwa_bullet.resources import profiles_dir
-from d3dwa_bullet.sim.noise import NoiseConfig, NoiseModel
+from d3dwa_bullet.sim.noise import NoiseModel
+from d3dwa_bullet.sim.noise_config import NoiseConfig
 from randomization import episode_noise, list_profiles, load_profile
 
 SHIPPED = ["harsh", "none", "paper", "real"]

@@ -8,18 +8,14 @@ import numpy as np
 import pytest
 
 from d3dwa_bullet.errors import ConfigError, EstimatorError
+from d3dwa_bullet.geometry import arc_step, wrap_angle
+from d3dwa_bullet.robot import TRACK, WHEEL_RADIUS
 from d3dwa_bullet.sim.estimator import EstimatorConfig, PoseEstimator, unicycle_jacobian
-from d3dwa_bullet.sim.noise import (
-    ImuConfig,
-    NoiseConfig,
-    NoiseModel,
-    OdometryConfig,
-    PoseFixConfig,
-    wrap_angle,
-)
-from d3dwa_bullet.sim.odometry import WheelOdometry, arc_step
+from d3dwa_bullet.sim.noise import NoiseModel
+from d3dwa_bullet.sim.noise_config import ImuConfig, NoiseConfig, OdometryConfig, PoseFixConfig
+from d3dwa_bullet.sim.odometry import WheelOdometry
 
-R, TRACK, DT = 0.045, 0.200, 0.1
+R, DT = WHEEL_RADIUS, 0.1
 
 
 def wheel_speeds(v: float, w: float) -> tuple[float, float]:

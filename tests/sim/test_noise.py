@@ -8,19 +8,16 @@ import numpy as np
 import pytest
 
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.sim.noise import (
-    STREAMS,
+from d3dwa_bullet.sim.noise import STREAMS, NoiseModel, encoder_wheel_speed, ground_wheel_speed
+from d3dwa_bullet.sim.noise_config import (
     ImuConfig,
     LatencyConfig,
     LidarNoiseConfig,
     NoiseConfig,
-    NoiseModel,
     OdometryConfig,
     PhysicsConfig,
     PoseFixConfig,
     SlipConfig,
-    encoder_wheel_speed,
-    ground_wheel_speed,
 )
 
 RANGE_MIN, RANGE_MAX = 0.05, 10.0

@@ -11,22 +11,22 @@ import pytest
 
 from d3dwa_bullet.episode import Episode, EpisodeResult, run_episode
 from d3dwa_bullet.evaluation.jobs import make_noise
+from d3dwa_bullet.geometry import wrap_angle
 from d3dwa_bullet.methods import FIXED, make_controller
 from d3dwa_bullet.params import PlannerParams
 from d3dwa_bullet.planning.observation import build_observation, sector_ranges
 from d3dwa_bullet.planning.planner import plan
-from d3dwa_bullet.sim.noise import (
+from d3dwa_bullet.sim.noise import NoiseModel
+from d3dwa_bullet.sim.noise_config import (
     ImuConfig,
     LidarNoiseConfig,
     NoiseConfig,
-    NoiseModel,
     OdometryConfig,
     PoseFixConfig,
-    wrap_angle,
 )
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D, scan_points_body
 from d3dwa_bullet.sim.simulator import Simulator
-from d3dwa_bullet.world.model import load_world, world_paths
+from d3dwa_bullet.world.registry import load_world, world_paths
 from randomization import episode_noise, load_profile
 from tools.bench import eval_estimator
 

@@ -11,6 +11,7 @@ import pytest
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.params import SimParams
 from d3dwa_bullet.resources import urdf_path
+from d3dwa_bullet.robot import BODY_CENTER, IMU_MOUNT, LIDAR_MOUNT, TRACK
 from d3dwa_bullet.sim.lidar import LidarParams
 from d3dwa_bullet.sim.simulator import Simulator
 from d3dwa_bullet.world.model import Box, World
@@ -38,17 +39,17 @@ def test_urdf_has_the_vendor_geometry():
             for j in range(p.getNumJoints(robot, physicsClientId=c))
         }
         com = np.array(p.getDynamicsInfo(robot, -1, physicsClientId=c)[3])
-        assert com == pytest.approx((0.0435, 0, 0.0475))
+        assert com == pytest.approx(BODY_CENTER)
         assert p.getDynamicsInfo(robot, -1, physicsClientId=c)[0] == pytest.approx(6.4)
 
         def origin(name):  # PyBullet gives joint frames relative to the parent's inertial frame
             return np.asarray(joints[name][14]) + com
 
         assert joints["left_wheel_joint"][2] == p.JOINT_REVOLUTE
-        assert origin("left_wheel_joint") == pytest.approx((0, 0.1, 0), abs=1e-9)
-        assert origin("right_wheel_joint") == pytest.approx((0, -0.1, 0), abs=1e-9)
-        assert origin("lidar_link_joint") == pytest.approx((0.156, 0, 0.105), abs=1e-9)
-        assert origin("imu_link_joint") == pytest.approx((0.076, -0.066, 0.051), abs=1e-9)
+        assert origin("left_wheel_joint") == pytest.approx((0, TRACK / 2, 0), abs=1e-9)
+        assert origin("right_wheel_joint") == pytest.approx((0, -TRACK / 2, 0), abs=1e-9)
+        assert origin("lidar_link_joint") == pytest.approx(LIDAR_MOUNT, abs=1e-9)
+        assert origin("imu_link_joint") == pytest.approx(IMU_MOUNT, abs=1e-9)
     finally:
         p.disconnect(c)
 
@@ -96,7 +97,7 @@ def test_lidar_range_to_a_wall_ahead_is_exact(wall_world):
         scan, true = sim.sense()
     ahead = len(true) // 2
     assert scan.angles[ahead] == pytest.approx(0.0, abs=1e-6)
-    assert true[ahead] == pytest.approx(1.95 - 0.156, abs=1e-6)
+    assert true[ahead] == pytest.approx(1.95 - LIDAR_MOUNT[0], abs=1e-6)
     # Beams at +-120 deg see nothing (the wall is ahead only): +inf, the REP-117 "no return".
     assert np.isinf(true[0]) and np.isinf(true[-1])
     assert len(true) == LidarParams().beams == 481
@@ -106,7 +107,7 @@ def test_lidar_follows_the_robot_pose(wall_world):
     world = wall_world.with_task(start=(0.5, 0.0, 0.0))
     with Simulator(world) as sim:
         _, true = sim.sense()
-    assert true[len(true) // 2] == pytest.approx(1.95 - 0.156 - 0.5, abs=1e-6)
+    assert true[len(true) // 2] == pytest.approx(1.95 - LIDAR_MOUNT[0] - 0.5, abs=1e-6)
 
 
 def test_contact_is_reported_when_driving_into_a_wall():

@@ -1,4 +1,4 @@
-"""The action-set probes: geodesic route field, arc end points, the oracle and the script."""
+"""The action-set probes: geodesic route field, the oracle and the script."""
 
 from __future__ import annotations
 
@@ -42,25 +42,6 @@ def test_geodesic_field_goes_round_a_wall_and_marks_it_blocked():
     assert _at(route, 0.0, 0.0) >= around - 0.05
     assert _at(route, 0.0, 0.0) > 2.0 + 0.5
     assert math.isinf(_at(route, 1.0, 0.0))  # inside the inflated wall
-
-
-def test_arc_step_over_a_whole_horizon_matches_the_closed_forms():
-    # the oracle holds each command for its action's tau (2-5 s), far beyond one control period
-    assert arc_step(1.0, 2.0, 0.0, 0.4, 0.0, 2.0)[:2] == pytest.approx((1.8, 2.0))  # straight
-    r = 2 / math.pi  # quarter circle to the left: radius v / w
-    assert arc_step(1.0, 2.0, 0.0, 1.0, math.pi / 2, 1.0)[:2] == pytest.approx((1.0 + r, 2.0 + r))
-    assert arc_step(1.0, 2.0, 0.0, 0.0, 1.0, 3.0)[:2] == pytest.approx((1.0, 2.0))  # in place
-
-
-def test_arc_step_over_a_whole_horizon_agrees_with_integrating_the_unicycle():
-    pose, v, w, tau = (0.3, -0.2, 0.7), 0.35, -1.3, 4.0
-    x, y, th = pose
-    n = 40000
-    for _ in range(n):
-        x += v * math.cos(th) * tau / n
-        y += v * math.sin(th) * tau / n
-        th += w * tau / n
-    assert arc_step(*pose, v, w, tau)[:2] == pytest.approx((x, y), abs=1e-4)
 
 
 def test_oracle_prefers_the_action_heading_round_the_wall_not_into_it():

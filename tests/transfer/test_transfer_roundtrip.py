@@ -20,7 +20,7 @@ from d3dwa_bullet.learning.agents import D3QNAgent, D3QNConfig, save_checkpoint
 from d3dwa_bullet.methods import make_controller
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
 from d3dwa_bullet.resources import profiles_dir
-from d3dwa_bullet.world.model import load_world
+from d3dwa_bullet.world.registry import load_world
 from transfer.bag_reader import read_bag
 from transfer.bag_writer import BagRecorder
 from transfer.replay import replay_bag
@@ -236,7 +236,7 @@ def test_ekf_mode_is_the_simulators_filter(tmp_path):
 
 
 def test_mean_body_rates_inverts_the_arc():
-    from d3dwa_bullet.sim.odometry import arc_step
+    from d3dwa_bullet.geometry import arc_step
 
     for v, w in [(0.3, 0.0), (0.25, 1.5), (0.0, -2.0), (0.4, -0.7)]:
         end = arc_step(1.0, -2.0, 3.0, v, w, 0.1)

@@ -9,7 +9,7 @@ import pytest
 
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.learning.env import D3DWAEnv
-from d3dwa_bullet.world.model import load_world
+from d3dwa_bullet.world.registry import load_world
 from d3dwa_bullet.world.route_start import (
     ROUTE_START_CLEARANCE,
     ROUTE_START_HEADING,

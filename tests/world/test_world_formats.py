@@ -12,7 +12,8 @@ import yaml
 
 from d3dwa_bullet.errors import WorldFormatError
 from d3dwa_bullet.world.map_server import load_map_world, mask_to_boxes
-from d3dwa_bullet.world.model import Box, Cylinder, load_world_file
+from d3dwa_bullet.world.model import Box, Cylinder
+from d3dwa_bullet.world.registry import load_world_file
 from d3dwa_bullet.world.sdf import DEFAULT_GOAL, DEFAULT_START, load_sdf_world
 
 # ---------------------------------------------------------------- native YAML

@@ -11,13 +11,12 @@ import yaml
 from d3dwa_bullet.errors import ConfigError, UnknownNameError, WorldFormatError
 from d3dwa_bullet.resources import generators_dir
 from d3dwa_bullet.world import generator as world_generator
-from d3dwa_bullet.world.generator import (
-    generate_world,
-    list_generator_styles,
-    load_generator,
-)
-from d3dwa_bullet.world.grid import footprint_reachable, gap_between, shortest_path
+from d3dwa_bullet.world.gaps import gap_between
+from d3dwa_bullet.world.generator import generate_world
+from d3dwa_bullet.world.generator_spec import list_generator_styles, load_generator
 from d3dwa_bullet.world.model import World
+from d3dwa_bullet.world.reachability import footprint_reachable
+from d3dwa_bullet.world.routes import shortest_path
 
 STYLES = ["R1-style", "R2-style", "R3-style"]
 COUNTS = {"R1-style": 5, "R2-style": 8, "R3-style": 14}

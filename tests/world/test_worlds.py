@@ -11,17 +11,12 @@ import pytest
 
 from d3dwa_bullet.errors import WorldFormatError
 from d3dwa_bullet.params import PlannerParams
-from d3dwa_bullet.world.grid import (
-    REFERENCE_PATH_LENGTHS,
-    ShortestPath,
-    clearance_field,
-    footprint_reachable,
-    gap_between,
-    passages,
-    rasterize,
-    shortest_path,
-)
-from d3dwa_bullet.world.model import Box, Cylinder, World, load_world, world_paths
+from d3dwa_bullet.world.gaps import gap_between, passages
+from d3dwa_bullet.world.grid import clearance_field, rasterize
+from d3dwa_bullet.world.model import Box, Cylinder, World
+from d3dwa_bullet.world.reachability import footprint_reachable
+from d3dwa_bullet.world.registry import load_world, world_paths
+from d3dwa_bullet.world.routes import REFERENCE_PATH_LENGTHS, ShortestPath, shortest_path
 from tools.experiments import check_worlds
 
 NAMES = ["TS1", "TS2", "TS3", "TS4", "US1", "H1", "H2", "H3", "R1", "R2", "R3"]
