@@ -16,7 +16,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -25,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from d3dwa_bullet.errors import BagFormatError
+from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D
 from transfer.bag_reader import BagData, Clock, first_goal, read_bag
@@ -80,9 +80,7 @@ def _informative(scan: LaserScan) -> bool:
 
 
 def _write_json(path: Path, data: dict[str, Any]) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2, allow_nan=True) + "\n")
-    os.replace(tmp, path)
+    atomic_write_text(path, json.dumps(data, indent=2, allow_nan=True) + "\n")
 
 
 def replay_bag(

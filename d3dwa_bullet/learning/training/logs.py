@@ -20,6 +20,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from d3dwa_bullet.io import atomic_savefig
 from d3dwa_bullet.learning.training.run_dir import (
     EPISODES_FILE,
     LOG_FILES,
@@ -171,8 +172,4 @@ def learning_curve(
         if ax.get_legend_handles_labels()[0]:
             ax.legend(loc="lower right", fontsize=8)
     ax1.set_title(title)
-    path = Path(path)
-    tmp = path.with_name(path.stem + ".tmp.png")
-    fig.savefig(tmp, dpi=90)
-    os.replace(tmp, path)
-    return path
+    return atomic_savefig(fig, path, dpi=90)

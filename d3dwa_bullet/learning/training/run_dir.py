@@ -26,7 +26,6 @@ only in ``total_steps``.
 from __future__ import annotations
 
 import json
-import os
 import time
 from datetime import UTC, datetime
 from pathlib import Path
@@ -34,6 +33,7 @@ from typing import Any
 
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.learning.agents.checkpoint import CONFIG_FILE, META_FILE
 from d3dwa_bullet.learning.training.config import TrainConfig, load_train_config
 
@@ -114,6 +114,4 @@ def write_run_info(out: Path, config: TrainConfig) -> None:
 
 def write_summary(out: Path, summary: dict[str, Any]) -> None:
     """Write ``<out>/summary.json``, swapped in whole."""
-    tmp = out / (SUMMARY_FILE + ".tmp")
-    tmp.write_text(json.dumps(summary, indent=2) + "\n")
-    os.replace(tmp, out / SUMMARY_FILE)
+    atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2) + "\n")
