@@ -205,7 +205,7 @@ def _use_local_token() -> None:
     """
     if "RAY_AUTH_MODE" in os.environ or not RAY_TOKEN_PATH.exists():
         return
-    try:
+    try:  # optional dependency (the ray extra); a private module, absent from older Rays
         from ray._private.authentication.authentication_token_setup import (
             maybe_enable_token_auth_if_token_available,
         )

@@ -1,4 +1,4 @@
-"""scripts/probe_route.py: episodes started part-way along a world's route."""
+"""tools/experiments/probe_route.py: episodes started part-way along a world's route."""
 
 from __future__ import annotations
 
