@@ -7,6 +7,7 @@ are cut to a few seconds here; ``test_full_episodes_round_trip`` (slow) runs the
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -14,8 +15,9 @@ import pytest
 import yaml
 from rosbags.highlevel import AnyReader
 
-from d3dwa_bullet.episode import EpisodeResult, run_episode
+from d3dwa_bullet.episode import EpisodeConfig, EpisodeResult, run_episode
 from d3dwa_bullet.evaluation.jobs import make_noise
+from d3dwa_bullet.evaluation.metrics import body_clearance, posture_displacement, trajectory_length
 from d3dwa_bullet.learning.agents import D3QNAgent, D3QNConfig, save_checkpoint
 from d3dwa_bullet.methods import make_controller
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
@@ -36,6 +38,16 @@ from transfer.topics import ROLE_TYPES, TopicMap
 OBS_TOLERANCE = 1e-9
 SHORT = 3.0  # s of sim time per round-trip episode in the fast tests
 PERIOD_NS = 100_000_000
+CONFIG = EpisodeConfig()
+#: (world, noise) -> (outcome, steps) of the whole seed-0 episodes of the test policy.
+FULL_EPISODES = {
+    ("R1", "none"): ("timeout", 600),
+    ("R1", "real"): ("goal", 90),
+    ("R2", "none"): ("timeout", 600),
+    ("R2", "real"): ("timeout", 600),
+    ("R3", "none"): ("goal", 209),
+    ("R3", "real"): ("goal", 334),
+}
 
 
 @pytest.fixture(scope="module")
@@ -80,6 +92,43 @@ def round_trip_report(episode: EpisodeResult, replay: ReplayResult) -> dict:
             np.mean((commands == np.column_stack((log["v_cmd"], log["w_cmd"]))).all(axis=1))
         ),
         "distinct_actions": len(set(actions.tolist())),
+    }
+
+
+def summary_from_bag(
+    bag_path: Path, replay: ReplayResult, episode: EpisodeResult, time_limit: float | None = None
+) -> dict:
+    """The episode's summary as its noise-free bag and replay tell it.
+
+    Without noise the wheel odometry is ground truth, one pose per control period from the
+    start to the end pose, so the metrics, and the outcome (the goal tolerance met at the
+    end, else the time limit reached, else a collision), come from the bag alone.
+    time_limit: s, the one the episode was recorded with (default: the world's).
+    """
+    world = load_world(episode.world)
+    limit = time_limit or world.time_limit or CONFIG.termination.time_limit
+    wheel = read_bag(bag_path).wheel_odometry
+    poses = np.column_stack((wheel.x, wheel.y, wheel.yaw))
+    steps = replay.replayed
+    end_distance = math.dist(world.goal, poses[-1, :2])
+    if end_distance <= CONFIG.termination.goal_tolerance:
+        outcome = "goal"
+    elif steps >= round(limit * CONFIG.sim.control_hz):
+        outcome = "timeout"
+    else:
+        outcome = "collision"
+    clearance = body_clearance(world, poses) if world.obstacles else np.array([np.inf])
+    return {
+        "world": world.name,
+        "method": episode.method,
+        "seed": episode.seed,
+        "noise": "none",
+        "outcome": outcome,
+        "time_s": round(steps * CONFIG.sim.control_period, 3),
+        "tl_m": round(trajectory_length(poses[:, :2]), 4),
+        "pd_rad": round(posture_displacement(poses[:, 2]), 4),
+        "min_clearance_m": round(float(clearance.min()), 4),
+        "steps": steps,
     }
 
 
@@ -128,15 +177,24 @@ def test_round_trip_is_exact(world, noise, recordings, policy_dir):
     replay = replay_bag(bag, step_fn=make_step_fn("d3dwa", policy_dir))
     report = assert_round_trip(episode, replay)
     assert report["steps"] == int(SHORT * 10)
+    assert episode.outcome == "timeout"
+    if noise == "none":
+        assert summary_from_bag(bag, replay, episode, SHORT) == episode.summary()
 
 
-def test_the_learned_policy_really_varies_its_choice(recordings):
-    """Otherwise the round trip above would not exercise the learned path."""
-    actions = set()
-    for world in ("R1", "R2", "R3"):
-        for noise in ("none", "real"):
-            actions |= set(recordings(world, noise)[1].log["action"].tolist())
-    assert len(actions) >= 3 and min(actions) >= 0
+@pytest.mark.parametrize("noise", ["none", "real"])
+@pytest.mark.parametrize("world", ["R1", "R2", "R3"])
+def test_the_learned_policy_really_varies_its_choice(world, noise, recordings):
+    """Otherwise the round trip above would not exercise the learned path: in every recorded
+    episode the policy picks several actions with at least two horizons, and each step's
+    weights and horizon are those of the action it chose."""
+    log = recordings(world, noise)[1].log
+    actions = log["action"].astype(int)
+    assert actions.min() >= 0 and len(set(actions.tolist())) >= 2
+    assert len(set(log["tau"].tolist())) >= 2, sorted(set(log["tau"].tolist()))
+    np.testing.assert_array_equal(
+        ACTIONS_FULL.table()[actions], np.column_stack([log[f] for f in ("wp", "wc", "ws", "tau")])
+    )
 
 
 def test_ekf_mode_drifts_without_the_robots_localisation(recordings, policy_dir):
@@ -248,10 +306,14 @@ def test_mean_body_rates_inverts_the_arc():
 @pytest.mark.parametrize("noise", ["none", "real"])
 @pytest.mark.parametrize("world", ["R1", "R2", "R3"])
 def test_full_episodes_round_trip(world, noise, policy_dir, tmp_path):
-    """Whole episodes (goal, collision or the 60 s limit) with the learned path."""
+    """Whole episodes (goal or the 60 s limit) with the learned path: the replay follows the
+    episode to its end, and a noise-free bag tells the episode's own summary."""
     episode = record(tmp_path / "bag", world, "d3dwa", policy_dir, noise, seed=0, time_limit=None)
     replay = replay_bag(
         tmp_path / "bag", step_fn=make_step_fn("d3dwa", policy_dir), out_dir=tmp_path / "out"
     )
     assert_round_trip(episode, replay)
-    assert episode.outcome in ("goal", "collision") or episode.steps == 600
+    assert (episode.outcome, episode.steps) == FULL_EPISODES[world, noise]
+    assert replay.rows[-1].t == pytest.approx(episode.time_s - CONFIG.sim.control_period)
+    if noise == "none":
+        assert summary_from_bag(tmp_path / "bag", replay, episode) == episode.summary()
