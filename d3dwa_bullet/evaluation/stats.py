@@ -7,7 +7,7 @@ Pure functions of counts and numbers (no simulator, no torch): the sweep's table
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Hashable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -78,7 +78,7 @@ def group_series(
     groups: Mapping[tuple[str, str, Any], Sequence[Mapping[str, Any]]],
     layouts: Sequence[str],
     methods: Sequence[str],
-    key: Callable[[Any], Hashable] | None = None,
+    key: Callable[[Any], Any] | None = None,
 ) -> Series:
     """CellStats of rows grouped by (layout group, method, x): layout groups in the order of
     layouts, methods in the order of methods, xs sorted (by key); empty groups left out."""
