@@ -23,10 +23,11 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from d3dwa_bullet.cli.app import build_parser
-from d3dwa_bullet.cli.eval import TABLE1_WORLDS, TABLE2_WORLDS
+from d3dwa_bullet.cli.eval import TABLE1_GROUPS, TABLE2_GROUPS
 from d3dwa_bullet.cli.options import default_methods
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation.report import write_report, write_table_page
+from d3dwa_bullet.world.registry import world_names
 
 TITLES = {
     "table1": "Table I analogue: simulation worlds (training TS1-TS4, unseen US1, hospital H1-H3)",
@@ -42,16 +43,19 @@ def run(
     ray: str | None = None,
     out: str | Path = "results",
     tables: str | Path = "tables",
-    table1_worlds: Sequence[str] = TABLE1_WORLDS,
-    table2_worlds: Sequence[str] = TABLE2_WORLDS,
+    table1_worlds: Sequence[str] | None = None,
+    table2_worlds: Sequence[str] | None = None,
     noise: str = "none",
     quiet: bool = False,
 ) -> dict[str, Path]:
     """Evaluate both tables and write their pages; returns {"table1": path, "table2": path}.
 
-    Raises D3DWAError (bad input, incomplete run) like the CLI would report it.
+    The worlds default to the shipped worlds of the tables' groups (TABLE1_GROUPS,
+    TABLE2_GROUPS). Raises D3DWAError (bad input, incomplete run) like the CLI would report it.
     """
     methods = list(methods) if methods else default_methods()
+    table1_worlds = world_names(*TABLE1_GROUPS) if table1_worlds is None else table1_worlds
+    table2_worlds = world_names(*TABLE2_GROUPS) if table2_worlds is None else table2_worlds
     written = {}
     for name, worlds in (("table1", table1_worlds), ("table2", table2_worlds)):
         results = Path(out) / name
@@ -83,16 +87,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--out", default="results", help="results root (table1/, table2/ inside)")
     ap.add_argument("--tables", default="tables", help="where table1.md and table2.md go")
     ap.add_argument("--noise", default="none", help="noise profile of every episode")
-    ap.add_argument("--table1-worlds", default=",".join(TABLE1_WORLDS))
-    ap.add_argument("--table2-worlds", default=",".join(TABLE2_WORLDS))
+    ap.add_argument("--table1-worlds", help="comma list (default: the train and unseen worlds)")
+    ap.add_argument("--table2-worlds", help="comma list (default: the real worlds)")
     args = ap.parse_args(argv)
     try:
         written = run(
             methods=args.methods.split(",") if args.methods else None,
             seeds=args.seeds, first_seed=args.seed, workers=args.workers, ray=args.ray,
             out=args.out, tables=args.tables, noise=args.noise,
-            table1_worlds=args.table1_worlds.split(","),
-            table2_worlds=args.table2_worlds.split(","),
+            table1_worlds=args.table1_worlds.split(",") if args.table1_worlds else None,
+            table2_worlds=args.table2_worlds.split(",") if args.table2_worlds else None,
         )  # fmt: skip
     except D3DWAError as err:
         print(f"reproduce_tables: error: {err}", file=sys.stderr)

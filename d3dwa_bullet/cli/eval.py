@@ -16,10 +16,12 @@ from d3dwa_bullet.cli.options import (
 )
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.io import atomic_write_text
-from d3dwa_bullet.world.registry import load_world
+from d3dwa_bullet.world.registry import load_world, world_names
 
-TABLE1_WORLDS = ("TS1", "TS2", "TS3", "TS4", "US1", "H1", "H2", "H3")
-TABLE2_WORLDS = ("R1", "R2", "R3")
+TABLE1_GROUPS = ("train", "unseen")
+"""World groups of Table I (TS1..TS4, US1, H1..H3): the default worlds of ``d3dwa eval``."""
+TABLE2_GROUPS = ("real",)
+"""World groups of Table II (R1..R3)."""
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -49,7 +51,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     methods = [
         check_method(m) for m in (split_list(args.methods) if args.methods else default_methods())
     ]
-    world_args = split_list(args.worlds) if args.worlds else list(TABLE1_WORLDS)
+    world_args = split_list(args.worlds) if args.worlds else list(world_names(*TABLE1_GROUPS))
     worlds = [load_world(w) for w in world_args]
     if args.seeds < 1:
         raise ConfigError(f"--seeds must be >= 1, got {args.seeds}")

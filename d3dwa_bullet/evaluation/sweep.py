@@ -53,10 +53,11 @@ from d3dwa_bullet.methods import check_method, make_controller
 from d3dwa_bullet.sim.noise_config import LidarNoiseConfig, NoiseConfig, OdometryConfig, SlipConfig
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
 from d3dwa_bullet.world.model import World
-from d3dwa_bullet.world.registry import load_world
+from d3dwa_bullet.world.registry import load_world, world_names
 from randomization import load_profile
 
-SHIPPED_WORLDS = ("R1", "R2", "R3")
+SHIPPED_WORLDS = world_names("real")
+"""The shipped worlds of group "real" (R1..R3)."""
 STYLES = ("R1-style", "R2-style", "R3-style")
 PROFILES = ("none", "paper", "real", "harsh")
 BASELINE = "none"

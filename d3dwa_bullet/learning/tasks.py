@@ -27,17 +27,16 @@ import numpy as np
 
 from d3dwa_bullet.errors import ConfigError, D3DWAError
 from d3dwa_bullet.sim.noise import NoiseModel
-from d3dwa_bullet.world.generator import generate_world
+from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
 from d3dwa_bullet.world.generator_spec import load_generator
 from d3dwa_bullet.world.model import World
-from d3dwa_bullet.world.registry import load_world
+from d3dwa_bullet.world.native import EVAL_ONLY_GROUPS
+from d3dwa_bullet.world.registry import load_world, world_names
 from d3dwa_bullet.world.route_start import ROUTE_START_CLEARANCE, route_polyline, route_start
 from randomization import episode_noise, load_profile
 
-#: World groups that are for evaluation only and never trained on.
-EVAL_ONLY_GROUPS = ("unseen", "real")
-#: The training worlds of the paper.
-TRAIN_WORLDS = ("TS1", "TS2", "TS3", "TS4")
+#: The training worlds of the paper: the shipped worlds of group "train" (TS1..TS4).
+TRAIN_WORLDS = world_names("train")
 #: Fresh layouts tried per episode before a generator style is given up (each is a
 #: different layout seed; a style fails a seed only when no passable layout was found).
 GENERATOR_RETRIES = 5
@@ -236,7 +235,7 @@ class TaskSampler:
         error: D3DWAError | None = None
         for _ in range(GENERATOR_RETRIES):
             try:
-                layout = generate_world(task, int(layout_rng.integers(2**31)))
+                layout = generate_world(task, int(layout_rng.integers(UNSEEN_LAYOUT_SEED_BASE)))
             except ConfigError as err:  # no passable layout for that seed: draw another
                 error = err
             else:

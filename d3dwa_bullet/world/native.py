@@ -36,6 +36,8 @@ from d3dwa_bullet.world.model import DEFAULT_HEIGHT, Box, Cylinder, Obstacle, Wo
 
 GROUPS = ("train", "unseen", "real", "custom")
 """World groups, in the order listings and tables print them."""
+EVAL_ONLY_GROUPS = ("unseen", "real")
+"""Groups for evaluation only: training never runs on their worlds."""
 WORLD_KEYS = {"name", "group", "order", "description", "start", "goal", "time_limit", "obstacles"}
 OBSTACLE_KEYS = {
     "box": {"type", "center", "size", "yaw", "height"},
