@@ -15,12 +15,17 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 from d3dwa_bullet.planning.observation import build_observation
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D, scan_points_body
+
+#: Pose sources of a decision step (``d3dwa replay --estimator``): the bag's fused odometry,
+#: or its wheel odometry and gyro re-fused by the simulator's EKF (``transfer.sim_bridge``).
+Estimator = Literal["odometry", "ekf"]
+ESTIMATORS: tuple[str, ...] = ("odometry", "ekf")
 
 
 @dataclass(frozen=True)

@@ -37,7 +37,7 @@ import math
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
@@ -51,10 +51,7 @@ from d3dwa_bullet.sim.estimator import EstimatorConfig, PoseEstimator
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.registry import load_world
-from transfer.replay_step import ScanStep, SkipScan, StepOutput
-
-Estimator = Literal["odometry", "ekf"]
-ESTIMATORS: tuple[str, ...] = ("odometry", "ekf")
+from transfer.replay_step import ESTIMATORS, Estimator, ScanStep, SkipScan, StepOutput
 
 #: Bag time of sim time 0, ns.
 DEFAULT_START_NS = 1_000_000_000

@@ -26,13 +26,11 @@ from transfer.bag_writer import BagRecorder
 from transfer.compare import compare_scans, format_scan_comparison
 from transfer.replay import replay_bag
 from transfer.replay_output import ReplayResult
-from transfer.replay_step import StepFn, observe_only
+from transfer.replay_step import ESTIMATORS, StepFn, observe_only
 from transfer.topics import TopicMap
 
 #: Replay method that needs no simulator-side code: observations only, no decision.
 OBSERVE_METHOD = "observe"
-#: Pose sources of the replay (``--estimator``).
-ESTIMATORS = ("odometry", "ekf")
 
 
 def parse_topic_overrides(items: list[str] | None) -> TopicMap:
