@@ -1,7 +1,8 @@
-"""Planar geometry shared by the simulator, the estimator, the worlds and the metrics.
+"""Planar geometry shared by the simulator, the estimator, the worlds, bags and metrics.
 
-Pure numpy and ``math``: angles, the unicycle arc and Kachaka's body outline. Nothing here
-knows about worlds, PyBullet or torch.
+Pure numpy and ``math``: angle wrapping, the unicycle arc, Kachaka's body outline and
+polygon outlines of rectangles and circles. Nothing here knows about worlds, PyBullet or
+torch.
 """
 
 from __future__ import annotations
@@ -34,14 +35,14 @@ def wrap_angle(a: float) -> float:
 
 
 def wrap_angle_modular(a: float) -> float:
-    """Angle reduced modulo 2 pi into [-pi, pi) as ``(a + pi) % 2 pi - pi``, rad.
+    """Angle reduced into [-pi, pi) as ``(a + pi) % 2 pi - pi``, rad: pi becomes -pi.
 
-    Not the same numbers as :func:`wrap_angle`: the sum with pi re-rounds every value, in
-    range or not, by up to half an ulp of pi (2.2e-16 rad), and -pi stays -pi. The
-    simulator's wheel odometry, EKF, gyro rate and pose fix keep their yaw with it: a noisy
-    episode feeds back its own estimate, so changing this rounding changes the trajectory
-    (seed for seed, not in distribution) of every noisy episode ever run. Use
-    :func:`wrap_angle` everywhere else.
+    Not the same numbers as :func:`wrap_angle`: adding pi re-rounds every value, in range
+    or not (by up to ~2e-16 rad; 1e-20 becomes 0). The simulator keeps the yaw of its wheel
+    odometry, EKF, gyro rate and pose fix with it, and a noisy episode feeds that estimate
+    back into its own control: with any other rounding every seeded noisy episode would
+    take another path (not a worse one, but not the one it took). Use :func:`wrap_angle`
+    everywhere else.
     """
     return (a + math.pi) % TAU - math.pi
 

@@ -57,11 +57,12 @@ def gap_between(a: Obstacle, b: Obstacle) -> float:
     """
     if isinstance(a, Cylinder) and isinstance(b, Cylinder):
         return math.dist(a.center, b.center) - a.radius - b.radius
-    if isinstance(a, Cylinder) or isinstance(b, Cylinder):
-        cyl, box = (a, b) if isinstance(a, Cylinder) else (b, a)
-        return float(obstacle_distance(box, np.array([cyl.center]))[0]) - cyl.radius
-    ca = rectangle_corners(a.center, a.size, a.yaw)  # type: ignore[union-attr]
-    cb = rectangle_corners(b.center, b.size, b.yaw)  # type: ignore[union-attr]
+    if isinstance(a, Cylinder):
+        return float(obstacle_distance(b, np.array([a.center]))[0]) - a.radius
+    if isinstance(b, Cylinder):
+        return float(obstacle_distance(a, np.array([b.center]))[0]) - b.radius
+    ca = rectangle_corners(a.center, a.size, a.yaw)
+    cb = rectangle_corners(b.center, b.size, b.yaw)
     d = float(min(obstacle_distance(b, ca).min(), obstacle_distance(a, cb).min()))
     return min(d, 0.0) if _boxes_overlap(ca, cb) else d
 

@@ -69,8 +69,8 @@ class World:
         """A copy with another start, goal or time limit, re-validated."""
         w = replace(
             self,
-            start=self.start if start is None else vector(start, 3, self.source, "start"),
-            goal=self.goal if goal is None else vector(goal, 2, self.source, "goal"),
+            start=self.start if start is None else vector(start, 3, self.source, "start"),  # type: ignore[arg-type]
+            goal=self.goal if goal is None else vector(goal, 2, self.source, "goal"),  # type: ignore[arg-type]
             time_limit=self.time_limit if time_limit is None else float(time_limit),
         )
         validate_task(w)

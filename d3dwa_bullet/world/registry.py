@@ -1,8 +1,9 @@
 """The shipped worlds by name and group, and loading any world file by its type.
 
-The shipped worlds are the native YAML files of ``worlds/`` (:func:`~d3dwa_bullet.resources.worlds_dir`).
-Their group is each file's ``group:`` field, and they are listed (by ``d3dwa worlds``, in
-tables and figures) in a stable order, by the key
+The shipped worlds are the native YAML files of ``worlds/``
+(:func:`~d3dwa_bullet.resources.worlds_dir`). Their group is each file's ``group:`` field,
+and they are listed (by ``d3dwa worlds``, in tables and figures) in a stable order, by the
+key
 
     (group in the order train, unseen, real, custom;  the file's ``order:``;  file name)
 

@@ -11,7 +11,7 @@ from d3dwa_bullet.errors import ConfigError, EstimatorError
 from d3dwa_bullet.geometry import arc_step, wrap_angle
 from d3dwa_bullet.robot import TRACK, WHEEL_RADIUS
 from d3dwa_bullet.sim.estimator import EstimatorConfig, PoseEstimator, unicycle_jacobian
-from d3dwa_bullet.sim.noise import NoiseModel
+from d3dwa_bullet.sim.noise import NoiseModel, encoder_wheel_speed, ground_wheel_speed
 from d3dwa_bullet.sim.noise_config import ImuConfig, NoiseConfig, OdometryConfig, PoseFixConfig
 from d3dwa_bullet.sim.odometry import WheelOdometry
 
@@ -93,8 +93,6 @@ def test_odometry_needs_rng_when_on_and_finite_inputs() -> None:
 
 def test_odometry_overestimates_under_slip() -> None:
     """Encoder sees the un-slipped wheel speed, so odometry runs ahead of the truth."""
-    from d3dwa_bullet.sim.noise import encoder_wheel_speed, ground_wheel_speed
-
     truth, odo = WheelOdometry(R, TRACK), WheelOdometry(R, TRACK)
     slip = np.array([0.05, 0.05])
     cmd = np.array(wheel_speeds(0.3, 0.0))

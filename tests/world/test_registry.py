@@ -5,9 +5,12 @@ from __future__ import annotations
 import pytest
 import yaml
 
+import d3dwa_bullet.world as world_package
 from d3dwa_bullet.errors import UnknownNameError, WorldFormatError
 from d3dwa_bullet.world import registry
+from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.registry import list_worlds, world_names, world_paths
+from d3dwa_bullet.world.routes import shortest_path
 
 #: The order every listing and table printed before the groups came from the files.
 LISTING = ("TS1", "TS2", "TS3", "TS4", "US1", "H1", "H2", "H3", "R1", "R2", "R3")
@@ -56,3 +59,13 @@ def test_a_malformed_order_names_the_file(tmp_path):
     write(tmp_path, "bad", group="train", order="first")
     with pytest.raises(WorldFormatError, match="bad.yaml.*'order'"):
         registry._shipped(tmp_path)
+
+
+def test_the_package_reexports_the_public_names():
+    assert (world_package.World, world_package.load_world, world_package.shortest_path) == (
+        World,
+        registry.load_world,
+        shortest_path,
+    )
+    for name in world_package.__all__:
+        assert hasattr(world_package, name), name
