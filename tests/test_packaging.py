@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import fnmatch
+import importlib
 import subprocess
 import sys
 import tomllib
@@ -24,6 +25,8 @@ PURE = (
     "d3dwa_bullet.planning.actions",
     "d3dwa_bullet.learning.reward",
     "d3dwa_bullet.evaluation.metrics",
+    "d3dwa_bullet.evaluation.stats",
+    "d3dwa_bullet.geometry",
 )
 
 
@@ -79,3 +82,10 @@ def test_pure_layers_import_neither_pybullet_nor_torch():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize("package", sorted(_source_packages()))
+def test_every_re_exported_name_resolves(package):
+    module = importlib.import_module(package)
+    missing = [n for n in getattr(module, "__all__", ()) if not hasattr(module, n)]
+    assert missing == []

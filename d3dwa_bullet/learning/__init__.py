@@ -12,8 +12,9 @@ pybullet. The ``reward`` function is not re-exported: it would hide the module o
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from d3dwa_bullet.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from d3dwa_bullet.learning.env import D3DWAEnv, observation_space
@@ -70,15 +71,5 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    # start-up cost: env needs pybullet and training needs torch, so import on first use
-    value = getattr(importlib.import_module(home), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+# Imported on first access: env needs pybullet and training needs torch.
+__getattr__, __dir__ = lazy_exports(globals(), _HOMES)

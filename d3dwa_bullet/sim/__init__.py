@@ -12,8 +12,9 @@ pybullet. Modules inside the package import each other directly, never through h
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from d3dwa_bullet.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from d3dwa_bullet.sim.estimator import EstimatorConfig, PoseEstimator
@@ -63,18 +64,30 @@ _HOMES = {
 }
 """Re-exported name -> the module that defines it."""
 
-__all__ = sorted(_HOMES)
+__all__ = [
+    "DriveParams",
+    "EstimatorConfig",
+    "ImuConfig",
+    "LaserScan",
+    "LatencyConfig",
+    "Lidar",
+    "LidarNoiseConfig",
+    "LidarParams",
+    "NoiseConfig",
+    "NoiseModel",
+    "OdometryConfig",
+    "PhysicsConfig",
+    "PhysicsScales",
+    "Pose2D",
+    "PoseEstimator",
+    "PoseFixConfig",
+    "Simulator",
+    "SlipConfig",
+    "WheelOdometry",
+    "encoder_wheel_speed",
+    "ground_wheel_speed",
+]
 
 
-def __getattr__(name: str) -> Any:
-    home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    # start-up cost: the simulator, lidar and estimator need pybullet or filterpy
-    value = getattr(importlib.import_module(home), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+# Imported on first access: the simulator, lidar and estimator need pybullet or filterpy.
+__getattr__, __dir__ = lazy_exports(globals(), _HOMES)

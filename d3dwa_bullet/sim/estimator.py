@@ -162,7 +162,9 @@ class PoseEstimator:
         )
         self.t = self._finite("reset", "t", t)
         cfg = self.config
-        self._ekf.x = np.array([[x], [y], [wrap_angle_modular(yaw)], [self._sat_v(v)], [self._sat_w(w)]])
+        self._ekf.x = np.array(
+            [[x], [y], [wrap_angle_modular(yaw)], [self._sat_v(v)], [self._sat_w(w)]]
+        )
         self._ekf.P = np.diag(
             [
                 cfg.init_pos_std**2,
