@@ -1,4 +1,4 @@
-"""The methods every command and table knows, by their stable names (SPEC section 6).
+"""The methods every command and table knows, by their stable names (docs/design.md#methods).
 
 A *controller* maps an observation to the DWA parameters of one control step; the planner
 then does the rest. Fixed baselines return constants; learned methods run a greedy policy

@@ -57,7 +57,7 @@ class Footprint:
 
 @dataclass(frozen=True)
 class PlannerParams:
-    """DWA parameters (SPEC section 4)."""
+    """DWA parameters (docs/design.md#planner)."""
 
     n_v: int = 20
     """Velocity samples along v."""
@@ -95,7 +95,7 @@ class PlannerParams:
 
 @dataclass(frozen=True)
 class ObservationParams:
-    """Observation layout (SPEC section 5)."""
+    """Observation layout (docs/design.md#observation)."""
 
     sectors: int = 8
     """Number of angular sectors K."""

@@ -1,4 +1,4 @@
-"""Episode metrics (SPEC section 9), pure functions of the logged ground-truth trajectory."""
+"""Episode metrics (docs/design.md#metrics), pure functions of the logged ground-truth trajectory."""
 
 from __future__ import annotations
 

@@ -4,7 +4,7 @@ The agent picks a discrete action (the DWA weights and horizon of this step); th
 plans with it and the robot drives one control period (``Episode.act``), then the robot
 senses (``Episode.observe``). Spaces:
 
-- observation: ``Box(12,)`` float32, the SPEC section 5 vector ``[d_g, theta_g, v, w,
+- observation: ``Box(12,)`` float32, the vector of docs/design.md#observation ``[d_g, theta_g, v, w,
   l_1..l_8]`` with bounds d_g in [0, 1], theta_g, v, w in [-1, 1], sectors in [0, 1];
 - action: ``Discrete(100)`` (W = {1, 2, 3}, T = {2, 3, 4, 5} s), or ``Discrete(25)`` with
   ``weights_only=True`` (tau = 4 s), or any ``ActionSet`` passed as ``actions``.

@@ -1,4 +1,4 @@
-"""The per-step reward R = R1 + R2 + R3 (SPEC section 6, paper Eq. reward, r1-r3).
+"""The per-step reward R = R1 + R2 + R3 (docs/design.md#reward, paper Eq. reward, r1-r3).
 
 R1 (outcome):   r_goal                    on reaching the goal (no step penalty, as in the paper)
                 r_coll + r_step           on a collision

@@ -1,4 +1,4 @@
-"""Pose and velocity estimation: an EKF over [x, y, yaw, v, w] (SPEC section 7).
+"""Pose and velocity estimation: an EKF over [x, y, yaw, v, w] (docs/design.md#estimator).
 
 Prediction is the unicycle model under constant (v, w), integrated exactly along the arc
 (:func:`~d3dwa_bullet.geometry.arc_step`) with its analytic Jacobian; process noise is

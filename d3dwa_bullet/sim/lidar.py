@@ -16,7 +16,7 @@ from d3dwa_bullet.sim.scan import LaserScan, Pose2D
 
 @dataclass(frozen=True)
 class LidarParams:
-    """Kachaka's 2D lidar as mounted in base_link (SPEC section 3)."""
+    """Kachaka's 2D lidar as mounted in base_link (docs/design.md#lidar)."""
 
     fov: float = math.radians(240.0)
     """Field of view, rad, centred forward."""

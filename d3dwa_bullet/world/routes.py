@@ -33,7 +33,7 @@ ROUTE_TUBE = 0.5
 ENDPOINT_RADIUS = 0.25
 """Around start and goal the bottleneck is not measured (their own clearance is no passage), m."""
 
-#: The SPEC section 8 "path length" column (TL of the best method), m: design targets.
+#: The "path length" column of docs/worlds.md (TL of the best method), m: design targets.
 REFERENCE_PATH_LENGTHS: dict[str, float] = {
     "TS1": 3.6,
     "TS2": 7.0,

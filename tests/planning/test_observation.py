@@ -1,4 +1,4 @@
-"""Observation (SPEC section 5) and the LaserScan record's REP-117 handling."""
+"""Observation (docs/design.md#observation) and the LaserScan record's REP-117 handling."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The shipped worlds (SPEC section 8) and the grid tools that check them."""
+"""The shipped worlds (docs/worlds.md) and the grid tools that check them."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ from tools.experiments import check_worlds
 NAMES = ["TS1", "TS2", "TS3", "TS4", "US1", "H1", "H2", "H3", "R1", "R2", "R3"]
 GROUPS = {"TS": "train", "US": "unseen", "H": "unseen", "R": "real"}
 PATH_TOLERANCE = 0.15
-"""Shortest inflated route within this fraction of the SPEC's path length."""
+"""Shortest inflated route within this fraction of the design path length (docs/worlds.md)."""
 ENDPOINT_CLEARANCE = 0.35
 """Start and goal stay at least this far from every obstacle, m."""
 AMBIGUOUS_GAPS = (0.36, 0.55)

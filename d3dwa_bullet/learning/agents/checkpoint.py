@@ -70,7 +70,7 @@ Agent = D3QNAgent | DQDWAAgent
 
 
 def default_method(agent: Agent) -> str:
-    """The method name (SPEC section 6) an agent stands for, from its family and action set."""
+    """The method name (docs/design.md#methods) an agent stands for, from its family and action set."""
     if isinstance(agent, DQDWAAgent):
         return "dqdwa"
     if agent.actions == ACTIONS_FULL:
