@@ -89,3 +89,12 @@ def test_every_re_exported_name_resolves(package):
     module = importlib.import_module(package)
     missing = [n for n in getattr(module, "__all__", ()) if not hasattr(module, n)]
     assert missing == []
+
+
+def test_ci_runs_exactly_the_readme_test_command():
+    readme = (ROOT / "README.md").read_text()
+    commands = [line for line in readme.splitlines() if line.startswith("python3 -m venv .venv")]
+    test_command = next(c for c in commands if c.endswith("python -m pytest -q"))
+    main_job = next(c for c in commands if "d3dwa eval" in c)
+    assert test_command in (ROOT / ".ci" / "run").read_text().splitlines()
+    assert " -e " not in main_job  # the main job works from a plain install
