@@ -246,8 +246,17 @@ def _distance_field(
     width, height = i_max - i_min + 1, j_max - j_min + 1
     img = np.ones((height, width), np.uint8)
     img[cells[:, 1] - j_min, cells[:, 0] - i_min] = 0
-    dist = cv2.distanceTransform(img, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    return _DistanceField(dist.ravel() * np.float32(res), i_min, j_min, width)
+    dist = cv2.distanceTransform(img, cv2.DIST_L2, cv2.DIST_MASK_PRECISE).ravel()
+    # OpenCV's result can differ by one float32 ulp from call to call on the same image (its
+    # vectorised paths depend on buffer alignment), which was enough to flip a tie between
+    # samples and change a noisy episode. Between cell centres the squared distance is an
+    # integer, recovered exactly by rounding (error << 0.5 for fields under ~2,000 cells
+    # across); its correctly rounded square root is the same on every call.
+    np.multiply(dist, dist, out=dist)
+    np.rint(dist, out=dist)
+    np.sqrt(dist, out=dist)
+    dist *= np.float32(res)
+    return _DistanceField(dist, i_min, j_min, width)
 
 
 def plan(

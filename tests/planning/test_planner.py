@@ -213,3 +213,22 @@ def test_fast_planner_matches_reference_at_full_size():
     _, _, index, clearance, admissible = reference_plan((0.2, 0.3), pts, (2.0, 1.0), action)
     assert fast.index == index and (fast.admissible == admissible).all()
     assert np.abs(fast.clearance[admissible] - clearance[admissible]).max() < 1e-6
+
+
+def test_distance_field_is_exact_and_the_same_on_every_call():
+    """OpenCV's precise transform can differ by one ulp between calls on the same image
+    (its vectorised paths depend on buffer alignment); the planner's field must not."""
+    from d3dwa_bullet.planning.planner import _distance_field
+
+    rng = np.random.default_rng(0)
+    for _ in range(60):
+        w, h = (int(n) for n in rng.integers(20, 300, 2))
+        n = int(rng.integers(1, 300))
+        cells = np.column_stack((rng.integers(0, w, n), rng.integers(0, h, n)))
+        fields = [_distance_field(cells, (0, 0, w - 1, h - 1), 0.02).dist for _ in range(4)]
+        for f in fields[1:]:
+            assert np.array_equal(f, fields[0])
+        jj, ii = np.divmod(np.arange(w * h), w)
+        d2 = ((ii[:, None] - cells[:, 0]) ** 2 + (jj[:, None] - cells[:, 1]) ** 2).min(axis=1)
+        exact = np.sqrt(d2.astype(np.float32)) * np.float32(0.02)
+        assert np.array_equal(fields[0], exact)
