@@ -255,7 +255,7 @@ def _distance_field(
     np.multiply(dist, dist, out=dist)
     np.rint(dist, out=dist)
     np.sqrt(dist, out=dist)
-    dist *= np.float32(res)
+    np.multiply(dist, np.float32(res), out=dist)
     return _DistanceField(dist, i_min, j_min, width)
 
 
