@@ -73,6 +73,8 @@ def make_controller(name: str, policy_path: str | Path | None = None) -> Control
     check_method(name)
     if name in FIXED:
         return Controller(name, fixed=FIXED[name], source="fixed")
+    # start-up cost, and layering: loading a policy imports torch and the learning layer,
+    # which fixed methods (and every pure caller of this registry) never need
     from d3dwa_bullet.learning.agents.policy import load_policy
 
     path = Path(policy_path) if policy_path is not None else default_policy_path(name)
