@@ -24,6 +24,7 @@ from d3dwa_bullet.sim.lidar import LidarParams
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.scan import LaserScan, scan_points_body
 from d3dwa_bullet.sim.simulator import Simulator
+from d3dwa_bullet.timing import perf
 from d3dwa_bullet.world.model import World
 
 LOG_FIELDS = (
@@ -156,14 +157,19 @@ class Episode:
     def observe(self) -> np.ndarray:
         """Sense and judge termination; returns the (12,) observation (the last one if over)."""
         sim, term, cfg = self.sim, self.config.termination, self.config
+        t = perf()
         pose = sim.true_pose()
         self.truth.append(pose)
+        t = sim.clock.charge("physics", t)
         scan, true_ranges = sim.sense()
+        t = perf()
         valid = true_ranges[np.isfinite(true_ranges) & (true_ranges >= cfg.lidar.range_min)]
         self.goal_distance = math.hypot(self.world.goal[0] - pose[0], self.world.goal[1] - pose[1])
         self.obstacle_distance = float(valid.min()) if valid.size else math.inf
         # Collision first: touching an obstacle inside the goal tolerance is still a collision.
-        if sim.in_contact() or self.obstacle_distance < term.collision_distance:
+        contact = sim.in_contact()
+        t = sim.clock.charge("physics", t)
+        if contact or self.obstacle_distance < term.collision_distance:
             self.outcome = "collision"
         elif self.goal_distance <= term.goal_tolerance:
             self.outcome = "goal"
@@ -171,11 +177,14 @@ class Episode:
             self.outcome = "timeout"
         self.scan = scan
         self.points = scan_points_body(scan, cfg.lidar.mount)
+        t = sim.clock.charge("observation", t)
         self.estimate = sim.estimate()
         est_pose, est_vel = self.estimate
+        t = sim.clock.charge("estimator", t)
         self.obs = build_observation(
             est_pose, est_vel, self.world.goal, self.points, cfg.observation, cfg.planner.limits
         )
+        sim.clock.charge("observation", t)
         return self.obs
 
     def act(self, index: int, action: PlannerAction) -> PlanResult:
@@ -185,6 +194,7 @@ class Episode:
                 f"episode is over ({self.outcome}); call observe() only before it ends"
             )
         est_pose, est_vel = self.estimate
+        t0 = perf()
         result = plan(
             est_vel,
             self.points,
@@ -192,6 +202,7 @@ class Episode:
             action,
             self.config.planner,
         )
+        self.sim.clock.charge("planner", t0)
         t = self.sim.time
         self.sim.step(result.v, result.w)
         self.observations.append(self.obs)

@@ -28,7 +28,11 @@ the evaluation-only groups (``unseen``: US1, H1-H3; ``real``: R1-R3) are refused
 ConfigError unless ``allow_eval_worlds=True``: training never sees them.
 
 ``reset(options=...)`` can pin the episode: ``{"world": name_or_World, "noise": profile,
-"episode_seed": int}`` (used by the greedy evaluation during training).
+"episode_seed": int}`` (used by the greedy evaluation during training), and set the task
+weights the draw uses (``{"task_weights": [...]}``, a curriculum's hook that also works
+through a vector env's reset). ``reset_rng_state`` is the env RNG's state just before the
+current episode's draw; ``rebuild`` re-runs an episode from that state and its actions
+(exact resumption of a training run).
 """
 
 from __future__ import annotations
@@ -47,6 +51,7 @@ from d3dwa_bullet.learning.reward import reward
 from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, TaskSampler
 from d3dwa_bullet.params import RewardParams
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
+from d3dwa_bullet.timing import StageClock, perf
 from d3dwa_bullet.world.model import World
 
 
@@ -122,6 +127,10 @@ class D3DWAEnv(gym.Env):
         self.route_started = False
         """True when the current episode starts part-way along its world's route."""
         self._obs = np.zeros(self.observation_space.shape, dtype=np.float32)
+        self.reset_rng_state: dict[str, Any] | None = None
+        """The env RNG's state just before the current episode's draw (see ``rebuild``)."""
+        self.clock = StageClock()
+        """Seconds per stage over the finished episodes (``stage_seconds`` adds the current)."""
 
     # --- sampling -------------------------------------------------------------------------
 
@@ -147,7 +156,11 @@ class D3DWAEnv(gym.Env):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         self._close_episode()
+        t0 = perf()
         options = dict(options or {})
+        if "task_weights" in options:
+            self.set_task_weights(options.pop("task_weights"))
+        self.reset_rng_state = self.np_random.bit_generator.state
         if "episode_seed" in options:
             episode_seed = int(options["episode_seed"])
         else:
@@ -165,6 +178,7 @@ class D3DWAEnv(gym.Env):
             noise_name=noise_name,
             config=self.episode_config,
         )
+        self.clock.charge("reset", t0)
         obs = self._observation(self.episode.observe())
         if self.episode.outcome is not None:
             outcome = self.episode.outcome
@@ -184,6 +198,7 @@ class D3DWAEnv(gym.Env):
             raise ConfigError(
                 f"D3DWAEnv.step: action {action!r} not in Discrete({self.actions.size})"
             )
+        t0 = perf()
         planner_action = self.actions.decode(index)
         d_goal, d_obs = ep.goal_distance, ep.obstacle_distance
         plan = ep.act(index, planner_action)
@@ -201,6 +216,7 @@ class D3DWAEnv(gym.Env):
             weights=(planner_action.wp, planner_action.wc, planner_action.ws),
             fallback=bool(plan.fallback),
         )
+        self.clock.charge("step", t0)
         return obs, r, terminated, truncated, info
 
     def close(self) -> None:
@@ -235,7 +251,46 @@ class D3DWAEnv(gym.Env):
             "obstacle_distance": ep.obstacle_distance,
         }
 
+    def stage_seconds(self) -> dict[str, float]:
+        """Seconds per stage (reset, physics, lidar, noise, estimator, observation, planner)
+        over every episode so far, the current one included."""
+        total = StageClock()
+        total.merge(self.clock.seconds)
+        if self.episode is not None:
+            total.merge(self.episode.sim.clock.seconds)
+        return total.seconds
+
+    def rebuild(
+        self, rng_state: Mapping[str, Any], actions: Sequence[int], task_weights: Any = None
+    ) -> np.ndarray:
+        """Re-run an episode exactly: restore the env RNG to ``rng_state`` (a former
+        ``reset_rng_state``), reset with ``task_weights`` (those of that reset), take
+        ``actions``; returns the observation reached. The env RNG then stands where it stood
+        after that episode's reset, so later resets draw what they drew the first time."""
+        self.np_random = np.random.Generator(np.random.PCG64(0))
+        self.np_random.bit_generator.state = dict(rng_state)
+        options = {} if task_weights is None else {"task_weights": task_weights}
+        obs, _ = self.reset(options=options)
+        for i, a in enumerate(actions):
+            obs, _, terminated, truncated, _ = self.step(a)
+            if (terminated or truncated) and i + 1 < len(actions):
+                raise RuntimeError(
+                    f"D3DWAEnv.rebuild: the episode ended after {i + 1} of {len(actions)} actions"
+                )
+        return obs
+
+    rebuild_plan: Mapping[str, Any] | None = None
+    """What ``rebuild_from_plan`` re-runs: {"rng_state", "actions", "task_weights"} (set
+    per env through a vector env's ``set_attr``, then called through ``call``)."""
+
+    def rebuild_from_plan(self) -> np.ndarray:
+        plan = self.rebuild_plan
+        if plan is None:
+            raise RuntimeError("D3DWAEnv.rebuild_from_plan: no rebuild_plan set")
+        return self.rebuild(plan["rng_state"], plan["actions"], plan.get("task_weights"))
+
     def _close_episode(self) -> None:
         if self.episode is not None:
+            self.clock.merge(self.episode.sim.clock.seconds)
             self.episode.close()
             self.episode = None

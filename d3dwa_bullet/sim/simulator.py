@@ -43,6 +43,7 @@ from d3dwa_bullet.sim.lidar import Lidar, LidarParams
 from d3dwa_bullet.sim.noise import NoiseModel, encoder_wheel_speed, ground_wheel_speed
 from d3dwa_bullet.sim.odometry import WheelOdometry
 from d3dwa_bullet.sim.scan import LaserScan
+from d3dwa_bullet.timing import StageClock, perf
 from d3dwa_bullet.world.model import Box, Cylinder, World, obstacle_outline
 
 
@@ -78,6 +79,8 @@ class Simulator:
         self.world, self.sim, self.limits, self.drive = world, sim, limits, drive
         self.noise = noise if noise is not None else NoiseModel()
         self.noisy = self.noise.config.enabled
+        self.clock = StageClock()
+        """Seconds per stage of the control steps so far (physics, lidar, noise, estimator)."""
         self.client = p.connect(p.GUI if gui else p.DIRECT)
         cid = self.client
         p.setGravity(0, 0, -9.81, physicsClientId=cid)
@@ -210,10 +213,15 @@ class Simulator:
 
     def sense(self) -> tuple[LaserScan, np.ndarray]:
         """The scan the robot sees (noise applied) and the true ranges, (beams,) m."""
+        clock, t = self.clock, perf()
         true = self.lidar.ranges()
         prm = self.lidar.params
+        t = clock.charge("lidar", t)
         seen = self.noise.corrupt_ranges(true, prm.range_min, prm.range_max) if self.noisy else true
-        return self.lidar.scan(seen, int(round(self.time * 1e9))), true
+        t = clock.charge("noise", t)
+        scan = self.lidar.scan(seen, int(round(self.time * 1e9)))
+        clock.charge("lidar", t)
+        return scan, true
 
     # -- control -----------------------------------------------------------------------
     def limit_command(self, v: float, w: float) -> tuple[float, float]:
@@ -238,12 +246,15 @@ class Simulator:
 
     def step(self, v: float, w: float) -> tuple[float, float]:
         """Run one control period under command (v, w). Returns the command applied."""
+        clock, t = self.clock, perf()
         cmd = self.noise.delay((v, w)) if self.noisy else (v, w)
         self.command = self.limit_command(*cmd)
         slip = self.noise.wheel_slip_ratio() if self.noisy else np.zeros(2)
+        t = clock.charge("noise", t)
         self._apply_wheels(*self.command, slip)
         p.stepSimulation(physicsClientId=self.client)
         self.step_count += 1
+        t = clock.charge("physics", t)
         if self.noisy:
             dt = self.sim.control_period
             angles = self._wheel_angles()
@@ -253,6 +264,7 @@ class Simulator:
             self._last_angles, self._last_yaw = angles, yaw
             _, _, _, ov, ow = self.odometry.update(float(enc[0]), float(enc[1]), dt)
             self._fuse(self.time, (ov, ow), w_mean)
+            clock.charge("estimator", t)
         return self.command
 
     def _wheel_angles(self) -> np.ndarray:

@@ -66,6 +66,7 @@ def _config(world: str, **changes) -> TrainConfig:
         checkpoint_every=0,
         log_every=20,
         keep="final",
+        n_envs=1,  # in this process, so monkeypatched env methods apply
     )
     return TrainConfig(**(base | changes))
 

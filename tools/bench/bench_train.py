@@ -1,14 +1,25 @@
-"""Throughput of the training loop: env steps/s and D3QN gradient updates/s.
+"""Throughput of the training loop: env steps/s, D3QN gradient steps/s, the whole loop.
 
     python -m tools.bench.bench_train --json
-    {"env_steps_per_s": ..., "updates_per_s": ..., "loop_steps_per_s": ..., ...}
+    {"env_steps_per_s": ..., "updates_per_s": ..., "loop_steps_per_s": ..., "n_envs": ...,
+     "minutes_per_250k_steps": ..., "timing_s": {...}}
 
-Runs ``train()`` for a short budget (default 2000 control steps on the committed d3dwa
-config: TS1-TS4 + generated R-style layouts, 128x128 dueling network, one update per
-``train_freq`` steps) into a temporary directory, without evaluation or intermediate
-checkpoints. env_steps_per_s counts time inside ``env.step`` only (plan + physics +
-sensing + observation); updates_per_s counts gradient steps per second of
-``agent.learn``; loop_steps_per_s is the whole loop (what bounds a training's length).
+Runs ``train()`` for a short budget (default 3000 control steps of the committed d3dwa
+config: TS1-TS4 + generated R-style layouts, 128x128 dueling network, one gradient step
+per ``train_freq`` env steps) into a temporary directory, without evaluation or
+intermediate checkpoints, with ``n_envs`` simulators (default: the config's).
+
+- env_steps_per_s: what the n envs sustain on their own, n / (mean seconds of one env
+  step inside its worker: plan + physics + sensing + observation);
+- updates_per_s: gradient steps per second of the learner's own time;
+- loop_steps_per_s: env steps per second of the whole loop (what bounds a training), and
+  minutes_per_250k_steps its projection to the shipped budget (without the periodic
+  greedy evaluations, which ``eval_s`` in a real run's summary shows);
+- timing_s: seconds by stage. Main process: act, env (waiting for the envs), learn,
+  checkpoint, setup. Summed over the envs (worker CPU seconds): env/step and its parts
+  env/physics, env/lidar, env/noise, env/estimator, env/observation, env/planner, and
+  env/reset. Learner: learn/sample, learn/forward_backward, learn/optimiser,
+  learn/target_update.
 """
 
 from __future__ import annotations
@@ -23,25 +34,29 @@ from pathlib import Path
 from d3dwa_bullet.learning.training import load_train_config, train
 from d3dwa_bullet.resources import configs_dir
 
+SHIPPED_BUDGET = 250_000
 
-def run(steps: int = 2000, config: str | Path | None = None) -> dict:
+
+def run(steps: int = 3000, config: str | Path | None = None, n_envs: int | None = None) -> dict:
     """Train ``steps`` control steps and return the throughput figures."""
     base = load_train_config(configs_dir() / "d3dwa.yaml" if config is None else config)
     agent = replace(base.agent, learning_starts=min(base.agent.learning_starts, steps // 4))
     cfg = replace(base, total_steps=steps, agent=agent, eval_every=0, checkpoint_every=0,
-                  keep="final")  # fmt: skip
+                  keep="final", n_envs=base.n_envs if n_envs is None else n_envs)  # fmt: skip
     with tempfile.TemporaryDirectory() as tmp:
         s = train(cfg, Path(tmp) / "bench", progress=False)
-    t = s["timing_s"]
+    loop = s["steps_per_s"]
     return {
         "env_steps_per_s": s["env_steps_per_s"],
         "updates_per_s": s["updates_per_s"],
-        "loop_steps_per_s": s["steps_per_s"],
+        "loop_steps_per_s": loop,
+        "n_envs": cfg.n_envs,
+        "minutes_per_250k_steps": round(SHIPPED_BUDGET / loop / 60, 2) if loop else None,
         "env_steps": s["env_steps"],
         "updates": s["train_steps"],
         "wall_time_s": s["wall_time_s"],
         "cpu_time_s": s["cpu_time_s"],
-        "timing_s": t,
+        "timing_s": s["timing_s"],
         "method": cfg.method,
         "train_freq": getattr(cfg.agent, "train_freq", 1),
     }
@@ -49,19 +64,21 @@ def run(steps: int = 2000, config: str | Path | None = None) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--steps", type=int, default=2000, help="control steps to train")
+    ap.add_argument("--steps", type=int, default=3000, help="control steps to train")
     ap.add_argument("--config", default=str(configs_dir() / "d3dwa.yaml"))
+    ap.add_argument("--n-envs", type=int, help="simulators in lock-step (default: the config's)")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
-    result = run(args.steps, args.config)
+    result = run(args.steps, args.config, args.n_envs)
     if args.json:
         print(json.dumps(result))
     else:
         print(
-            f"{result['env_steps']} env steps, {result['updates']} updates in "
-            f"{result['wall_time_s']:.1f} s: env {result['env_steps_per_s']:.1f} steps/s, "
-            f"learner {result['updates_per_s']:.1f} updates/s, "
-            f"loop {result['loop_steps_per_s']:.1f} steps/s"
+            f"{result['env_steps']} env steps on {result['n_envs']} envs, {result['updates']} "
+            f"updates in {result['wall_time_s']:.1f} s: env {result['env_steps_per_s']:.1f} "
+            f"steps/s, learner {result['updates_per_s']:.1f} updates/s, loop "
+            f"{result['loop_steps_per_s']:.1f} steps/s ({result['minutes_per_250k_steps']} min "
+            "per 250k steps)"
         )
     return 0
 

@@ -270,6 +270,10 @@ class DQDWAAgent:
         self.train_steps += 1
         return td
 
+    def act_batch(self, obs: np.ndarray) -> np.ndarray:
+        """``act`` for each row of a batch (n, obs_dim), in order: (n,) int64."""
+        return np.array([self.act(o) for o in obs], dtype=np.int64)
+
     def learn(self, transition: Transition) -> dict[str, float]:
         """Discretise a transition and update: the one call a training loop makes per step."""
         s = self.state_index(transition.obs)

@@ -29,6 +29,7 @@ from d3dwa_bullet.planning.actions import ActionSet
 DEFAULT_REWARD_SCALE = {"d3qn": 0.01, "dqdwa": 1.0}
 CURRICULA = ("uniform", "adaptive")
 KEEP = ("best", "final")
+VECTOR_MODES = ("async", "sync")
 
 
 def _tuple(value: Any, name: str, kind: type = str) -> tuple:
@@ -95,6 +96,14 @@ class TrainConfig:
     """Policy exported to <out>/policy: 'best' (greedy evaluation on training worlds) or 'final'."""
     seed: int = 0
     """Seeds the agent (network, exploration, replay) and the episode sequence."""
+    n_envs: int = 0
+    """Simulators stepped in lock-step, each in a worker process; 0: one per core of this
+    machine, resolved when the config is made (config.json records the number). A run is
+    deterministic for a given (seed, n_envs); the update-to-data ratio is the agent's
+    ``train_freq`` whatever n_envs is."""
+    vector: str = "async"
+    """'async': n_envs > 1 run in worker processes; 'sync': all in this process (the same
+    transitions, slower; for tests and debugging)."""
 
     def __post_init__(self) -> None:
         if self.method not in LEARNED:
@@ -123,6 +132,8 @@ class TrainConfig:
         set_("agent", replace(agent, seed=int(self.seed)))
         if self.reward_scale is None:
             set_("reward_scale", DEFAULT_REWARD_SCALE[family])
+        if isinstance(self.n_envs, int) and not isinstance(self.n_envs, bool) and self.n_envs == 0:
+            set_("n_envs", os.cpu_count() or 1)
         checks: list[tuple[str, bool, str]] = [
             ("total_steps", self.total_steps >= 1, ">= 1"),
             ("generator_prob", 0.0 <= self.generator_prob <= 1.0, "in [0, 1]"),
@@ -142,6 +153,8 @@ class TrainConfig:
             ("log_every", self.log_every >= 1, ">= 1"),
             ("keep", self.keep in KEEP, f"one of {KEEP}"),
             ("seed", self.seed >= 0, ">= 0"),
+            ("n_envs", isinstance(self.n_envs, int) and self.n_envs >= 1, ">= 1 (0: one per core)"),
+            ("vector", self.vector in VECTOR_MODES, f"one of {VECTOR_MODES}"),
             ("noise", bool(self.noise), "non-empty ('none' for noise-free)"),
         ]
         for name, ok, rule in checks:

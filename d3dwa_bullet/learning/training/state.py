@@ -3,11 +3,12 @@
 Resumption is exact: ``checkpoints/latest`` holds the agent's training state (replay
 buffer, Adam moments, target network, its RNGs and counters: ``agents.training_state``)
 and the trainer's own ``TrainingProgress``: counters, timings, the schedule, the
-curriculum, the rolling statistics, the evaluations, the sizes of the logs, and the
-episode in progress as (its env RNG state, the actions taken so far). A resumed run
-truncates the logs to the checkpoint (``truncate_logs``), rebuilds that episode by
-replaying its actions (``replay_episode``; the simulator is deterministic in DIRECT
-mode) and goes on as if never stopped.
+curriculum, the rolling statistics, the evaluations, the sizes of the logs, and each env's
+episode in progress as (its env RNG state before the draw, the curriculum's task weights at
+its reset, the actions taken so far). A resumed run truncates the logs to the checkpoint
+(``truncate_logs``), rebuilds every env's episode by replaying its actions
+(``rebuild_plans``; the simulator is deterministic in DIRECT mode) and goes on as if never
+stopped.
 """
 
 from __future__ import annotations
@@ -19,18 +20,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from gymnasium.utils.seeding import np_random
 
 from d3dwa_bullet.errors import TrainingError
-from d3dwa_bullet.learning.env import D3DWAEnv
 from d3dwa_bullet.learning.training.config import TrainConfig
 from d3dwa_bullet.learning.training.curriculum import Curriculum
 from d3dwa_bullet.learning.training.logs import SUCCESS_WINDOW
 from d3dwa_bullet.learning.training.schedule import Schedule
-
-
-def env_seed(seed: int) -> int:
-    """The reset seed of the first training episode, derived from the run seed."""
-    return int(np.random.SeedSequence([int(seed), 1]).generate_state(1)[0])
 
 
 @dataclass
@@ -38,9 +34,11 @@ class EpisodeProgress:
     """The episode in progress, as much as exact resumption needs."""
 
     reset_seed: int | None = None
-    """Seed passed to reset() (first episode only), else None."""
+    """Seed passed to reset() (first episode only, checkpoints of one-env runs), else None."""
     rng_before: dict[str, Any] | None = None
-    """The env's RNG state just before this episode's reset() (later episodes)."""
+    """The env's RNG state just before this episode's draw (filled when a checkpoint is saved)."""
+    task_weights: list[float] | None = None
+    """The curriculum's task weights at this episode's reset (None: the env's base ones)."""
     actions: list[int] = field(default_factory=list)
     """Actions taken so far (replayed on resume; env.step draws nothing from the env RNG)."""
     ret: float = 0.0
@@ -56,6 +54,11 @@ def _timing() -> dict[str, float]:
     return {"act": 0.0, "env": 0.0, "learn": 0.0, "eval": 0.0, "checkpoint": 0.0}
 
 
+def _rng_state_of_seed(seed: int) -> dict[str, Any]:
+    """The env RNG state right after ``reset(seed=seed)`` (Gymnasium's seeding)."""
+    return np_random(int(seed))[0].bit_generator.state
+
+
 @dataclass
 class TrainingProgress:
     """Everything of the training loop that ``latest`` saves and a resumed run restores."""
@@ -69,7 +72,8 @@ class TrainingProgress:
     cpu_time: float = 0.0
     """Process CPU time of the run, s (what the wall time would be on an idle core)."""
     timing: dict[str, float] = field(default_factory=_timing)
-    """Wall time by part of the loop (act, env, learn, eval, checkpoint), s."""
+    """Wall time by part of the loop (act, env: waiting for the envs, learn, eval,
+    checkpoint), s."""
     recent_returns: deque[float] = field(default_factory=lambda: deque(maxlen=SUCCESS_WINDOW))
     recent_success: deque[int] = field(default_factory=lambda: deque(maxlen=SUCCESS_WINDOW))
     loss_acc: dict[str, list[float]] = field(default_factory=dict)
@@ -77,9 +81,10 @@ class TrainingProgress:
     best: dict[str, Any] | None = None
     """The best greedy evaluation so far (the one saved as checkpoints/best)."""
     evals: list[dict[str, Any]] = field(default_factory=list)
-    episode: EpisodeProgress = field(default_factory=EpisodeProgress)
-    obs: np.ndarray = field(default_factory=lambda: np.zeros(12, dtype=np.float32))
-    """The current observation."""
+    episodes_in_progress: list[EpisodeProgress] = field(default_factory=list)
+    """Each env's current episode, in env order."""
+    obs: np.ndarray = field(default_factory=lambda: np.zeros((1, 12), dtype=np.float32))
+    """The current observation of each env, (n_envs, 12)."""
 
     @classmethod
     def start(cls, config: TrainConfig) -> TrainingProgress:
@@ -102,7 +107,10 @@ class TrainingProgress:
             "loss_acc": self.loss_acc,
             "best": self.best,
             "evals": self.evals,
-            "episode": asdict(self.episode) | {"obs": [float(v) for v in self.obs]},
+            "episodes_in_progress": [
+                asdict(ep) | {"obs": [float(v) for v in obs]}
+                for ep, obs in zip(self.episodes_in_progress, self.obs, strict=True)
+            ],
             "log_sizes": dict(log_sizes),
         }
 
@@ -120,7 +128,11 @@ class TrainingProgress:
         self.loss_acc = {k: list(v) for k, v in state["loss_acc"].items()}
         self.best = state["best"]
         self.evals = list(state["evals"])
-        self.episode = EpisodeProgress(**state["episode"])
+        saved = state.get("episodes_in_progress")
+        if saved is None:  # a checkpoint of the one-env loop
+            saved = [state["episode"]]
+        self.episodes_in_progress = [EpisodeProgress(**ep) for ep in saved]
+        self.obs = np.array([ep.obs for ep in self.episodes_in_progress], dtype=np.float32)
 
 
 def truncate_logs(out: Path, log_sizes: Mapping[str, int]) -> None:
@@ -132,29 +144,25 @@ def truncate_logs(out: Path, log_sizes: Mapping[str, int]) -> None:
                 fh.truncate(size)
 
 
-def replay_episode(env: D3DWAEnv, ep: EpisodeProgress, where: Path) -> np.ndarray | None:
-    """Re-run the saved episode in progress and return its current observation.
-
-    The env's curriculum weights must be those of the checkpoint (the reset draws the
-    task with them). None if that episode had already finished (the env RNG is then
-    where the next reset expects it). TrainingError if the replay does not reproduce the
-    saved observation (the simulator was not deterministic); ``where`` names the checkpoint.
-    """
-    if ep.reset_seed is not None:
-        obs, _ = env.reset(seed=ep.reset_seed)
-    else:
-        env.np_random = np.random.Generator(np.random.PCG64(0))
-        env.np_random.bit_generator.state = ep.rng_before
-        obs, _ = env.reset()
-    if ep.finished:
-        return None
-    for i, a in enumerate(ep.actions):
-        obs, _, terminated, truncated, _ = env.step(a)
-        if (terminated or truncated) and i + 1 < len(ep.actions):
-            break
-    if not np.array_equal(obs, np.asarray(ep.obs, dtype=np.float32)):
-        raise TrainingError(
-            f"{where}: replaying the episode in progress ({len(ep.actions)} steps on "
-            f"{env.world.name if env.world else '?'}) did not reproduce its saved observation"
+def rebuild_plans(episodes: list[EpisodeProgress]) -> list[dict[str, Any]]:
+    """What each env re-runs on resume (``D3DWAEnv.rebuild``) to stand where it stood."""
+    plans = []
+    for ep in episodes:
+        state = ep.rng_before if ep.rng_before is not None else _rng_state_of_seed(ep.reset_seed)  # type: ignore[arg-type]
+        plans.append(
+            {"rng_state": state, "actions": list(ep.actions), "task_weights": ep.task_weights}
         )
-    return obs
+    return plans
+
+
+def check_rebuilt(obs: np.ndarray, episodes: list[EpisodeProgress], where: Path) -> None:
+    """TrainingError unless each rebuilt episode reached its saved observation (the
+    simulator was not deterministic); ``where`` names the checkpoint."""
+    for i, ep in enumerate(episodes):
+        if ep.finished:
+            continue
+        if not np.array_equal(obs[i], np.asarray(ep.obs, dtype=np.float32)):
+            raise TrainingError(
+                f"{where}: replaying env {i}'s episode in progress ({len(ep.actions)} steps) "
+                "did not reproduce its saved observation"
+            )

@@ -34,17 +34,18 @@ from tqdm import tqdm
 import d3dwa_bullet.learning.training.checkpoints as checkpoints
 import d3dwa_bullet.learning.training.greedy_eval as greedy_eval
 import d3dwa_bullet.learning.training.run_dir as run_dir
+from d3dwa_bullet.errors import TrainingError
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
 from d3dwa_bullet.learning.agents.replay import Transition
-from d3dwa_bullet.learning.env import D3DWAEnv
+from d3dwa_bullet.learning.training.collector import Collector, env_seeds
 from d3dwa_bullet.learning.training.config import TrainConfig, make_agent, make_env
 from d3dwa_bullet.learning.training.logs import MetricsLog
 from d3dwa_bullet.learning.training.state import (
     EpisodeProgress,
     TrainingProgress,
-    env_seed,
-    replay_episode,
+    check_rebuilt,
+    rebuild_plans,
     truncate_logs,
 )
 
@@ -73,6 +74,9 @@ class _Stop:
             signal.signal(signal.SIGINT, self._previous)
 
 
+Agent = D3QNAgent | DQDWAAgent
+
+
 class Trainer:
     """One training run in ``out`` (see module docstring); ``run()`` returns the summary.
 
@@ -96,38 +100,49 @@ class Trainer:
         self._start = time.perf_counter()
         self._wall0 = 0.0
 
-    # --- checkpoints ---------------------------------------------------------------------
+    # --- the loop ------------------------------------------------------------------------
 
-    def save_latest(self, agent: D3QNAgent | DQDWAAgent, logs: MetricsLog) -> None:
-        t0 = time.perf_counter()
-        checkpoints.save_latest(self.out, agent, self.config, self.progress, logs)
-        self.progress.timing["checkpoint"] += time.perf_counter() - t0
+    def _task_weights(self, tasks: tuple[str, ...]) -> list[float] | None:
+        c = self.progress.curriculum
+        return c.weights(tasks) if c.mode == "adaptive" else None
 
-    def save_policy(
-        self, name: str, agent: D3QNAgent | DQDWAAgent, extra: Mapping[str, Any]
-    ) -> Path:
-        return checkpoints.save_policy(self.out, name, agent, self.config, self.progress, extra)
+    def _new_episode(self, weights: list[float] | None) -> EpisodeProgress:
+        ep = EpisodeProgress(task_weights=weights)
+        ep.tau_counts = [0] * len(self.config.actions.horizons)
+        return ep
 
-    # --- episodes ------------------------------------------------------------------------
-
-    def _reset(self, env: D3DWAEnv, first: bool) -> np.ndarray:
-        p = self.progress
-        p.curriculum.apply(env)
-        if first:
-            seed = env_seed(self.config.seed)
-            p.episode = EpisodeProgress(reset_seed=seed)
-            obs, _ = env.reset(seed=seed)
-        else:
-            p.episode = EpisodeProgress(rng_before=env.np_random.bit_generator.state)
-            obs, _ = env.reset()
-        p.episode.tau_counts = [0] * len(self.config.actions.horizons)
+    def _start_envs(self, collector: Collector, tasks: tuple[str, ...]) -> np.ndarray:
+        """First episodes of a new run, or every env's episode rebuilt on resume."""
+        p, n = self.progress, collector.n
+        if not self.resume:
+            weights = self._task_weights(tasks)
+            p.episodes_in_progress = [self._new_episode(weights) for _ in range(n)]
+            return collector.reset_all(env_seeds(self.config.seed, n), weights)
+        if len(p.episodes_in_progress) != n:
+            raise TrainingError(
+                f"{self.latest}: saved with {len(p.episodes_in_progress)} envs, resumed with "
+                f"n_envs = {n}; resume with the run's own n_envs"
+            )
+        obs = collector.rebuild(rebuild_plans(p.episodes_in_progress))
+        check_rebuilt(obs, p.episodes_in_progress, self.latest)
+        finished = np.array([ep.finished for ep in p.episodes_in_progress])
+        if finished.any():  # the budget ran out as these ended: their next episode starts now
+            weights = self._task_weights(tasks)
+            obs = collector.reset_some(finished, weights)
+            for i in np.flatnonzero(finished):
+                p.episodes_in_progress[i] = self._new_episode(weights)
         return obs
 
-    def _rebuild_episode(self, env: D3DWAEnv) -> np.ndarray | None:
-        self.progress.curriculum.apply(env)
-        return replay_episode(env, self.progress.episode, self.latest)
+    def _save_latest(self, agent: Agent, logs: MetricsLog, collector: Collector) -> None:
+        t0 = time.perf_counter()
+        p = self.progress
+        for ep, state in zip(p.episodes_in_progress, collector.reset_rng_states(), strict=True):
+            ep.rng_before = state
+        checkpoints.save_latest(self.out, agent, self.config, p, logs)
+        p.timing["checkpoint"] += time.perf_counter() - t0
 
-    # --- the loop ------------------------------------------------------------------------
+    def save_policy(self, name: str, agent: Agent, extra: Mapping[str, Any]) -> Path:
+        return checkpoints.save_policy(self.out, name, agent, self.config, self.progress, extra)
 
     def run(self, progress: bool = True) -> dict[str, Any]:
         c = self.config
@@ -142,11 +157,14 @@ class Trainer:
             agent = make_agent(c)
             run_dir.write_config(self.out, c)
             run_dir.write_run_info(self.out, c)
+        t_setup = time.perf_counter()
+        if isinstance(agent, D3QNAgent):
+            agent.optimizer  # noqa: B018  # built now: its one-off torch import is not an update's cost
         logs = MetricsLog(self.out)
-        env = make_env(c)
-        horizons = list(c.actions.horizons)
-        tau_slot = {h: i for i, h in enumerate(horizons)}
-        schedule = p.schedule
+        self._sampler_env = make_env(c)  # the task list and its probabilities, for the logs
+        tasks = self._sampler_env.tasks
+        collector = Collector(c, where=str(self.out))
+        p.timing["setup"] = p.timing.get("setup", 0.0) + time.perf_counter() - t_setup
         status = "done"
         start = self._start = time.perf_counter()
         wall0 = self._wall0 = p.wall_time
@@ -156,86 +174,144 @@ class Trainer:
                    mininterval=1.0 if os.isatty(2) else 30.0)  # fmt: skip
         try:
             with _Stop() as stop:
-                obs = None
-                if self.resume and p.env_steps < c.total_steps:
-                    obs = self._rebuild_episode(env)
-                if obs is None and p.env_steps < c.total_steps:
-                    obs = self._reset(env, first=not self.resume)
-                p.obs = obs
-                perf = time.perf_counter
-                timing = p.timing
+                if p.env_steps < c.total_steps:
+                    p.obs = self._start_envs(collector, tasks)
                 while p.env_steps < c.total_steps:
                     if stop.requested:
                         status = "interrupted"
                         break
-                    t0 = perf()
-                    action = agent.act(obs)
-                    t1 = perf()
-                    obs2, r, terminated, truncated, info = env.step(action)
-                    t2 = perf()
-                    logs_step = agent.learn(Transition(obs, action, r, obs2, terminated, truncated))
-                    t3 = perf()
-                    timing["act"] += t1 - t0
-                    timing["env"] += t2 - t1
-                    timing["learn"] += t3 - t2
-                    p.env_steps += 1
-                    bar.update(1)
-                    ep = p.episode
-                    ep.actions.append(int(action))
-                    ep.ret += r
-                    ep.tau_counts[tau_slot[info["tau"]]] += 1
-                    ep.fallbacks += int(info["fallback"])
-                    if "losses/td_error" in logs_step:  # tabular: log 0.5 td^2 as its TD loss
-                        td = logs_step["losses/td_error"]
-                        logs_step = {"losses/td_loss": 0.5 * td * td, "losses/td_abs": abs(td)}
-                    for tag, value in logs_step.items():
-                        acc = p.loss_acc.setdefault(tag, [0.0, 0])
-                        acc[0] += value
-                        acc[1] += 1
-                    if schedule.log.take(p.env_steps):
-                        self._log_scalars(logs, agent, env)
-                    if terminated or truncated:
-                        ep.finished = True
-                        self._end_episode(logs, agent, info, bar)
-                        if schedule.eval.take(p.env_steps):
-                            self._evaluate_and_keep(logs, agent, bar)
-                        # the next episode starts before the checkpoint, so a resume
-                        # rebuilds it from the saved RNG with no steps to replay
-                        obs = obs2
-                        if p.env_steps < c.total_steps:
-                            obs = self._reset(env, first=False)
-                        p.obs = obs
-                        if schedule.checkpoint.take(p.env_steps):
-                            p.wall_time = wall0 + perf() - start
-                            p.cpu_time = cpu0 + time.process_time() - cpu_start
-                            self.save_latest(agent, logs)
-                    else:
-                        obs = p.obs = obs2
-                p.wall_time = wall0 + time.perf_counter() - start
-                p.cpu_time = cpu0 + time.process_time() - cpu_start
+                    ended = self._lock_step(agent, collector, logs, bar, tasks)
+                    # checked at episode ends, after the next episode's reset (as the docs say)
+                    if (
+                        ended
+                        and p.env_steps < c.total_steps
+                        and p.schedule.checkpoint.take(p.env_steps)
+                    ):
+                        self._clock(wall0, start, cpu0, cpu_start)
+                        self._save_latest(agent, logs, collector)
+                if status == "done" and isinstance(agent, D3QNAgent):
+                    t0 = time.perf_counter()
+                    self._log_losses(agent.update_pending())  # the last transitions' updates
+                    p.timing["learn"] += time.perf_counter() - t0
+                self._clock(wall0, start, cpu0, cpu_start)
                 if (
                     status == "done"
                     and c.eval_every
                     and (not p.evals or p.evals[-1]["step"] != p.env_steps)
                 ):
                     self._evaluate_and_keep(logs, agent, bar)
-                self.save_latest(agent, logs)
+                self._save_latest(agent, logs, collector)
                 if status == "done":
                     final_eval = p.evals[-1] if p.evals else None
                     self.save_policy("final", agent, {"selected": "final", "eval": final_eval})
                     keep = "best" if c.keep == "best" and p.best is not None else "final"
                     checkpoints.export_policy(self.out, self.out / run_dir.POLICY_DIR, keep)
+                self._stage_timing(agent, collector)
         finally:
             bar.close()
-            env.close()
+            collector.close()
             logs.close()
         summary = self.summary(agent, status)
         run_dir.write_summary(self.out, summary)
         return summary
 
-    def _end_episode(self, logs: MetricsLog, agent: Any, info: Mapping[str, Any], bar: Any) -> None:
+    def _clock(self, wall0: float, start: float, cpu0: float, cpu_start: float) -> None:
+        self.progress.wall_time = wall0 + time.perf_counter() - start
+        self.progress.cpu_time = cpu0 + time.process_time() - cpu_start
+
+    def _lock_step(
+        self, agent: Agent, collector: Collector, logs: MetricsLog, bar: Any, tasks: tuple[str, ...]
+    ) -> bool:
+        """One step of every env: actions for all in one batch, the learner's due gradient
+        steps while the envs simulate, then each env's transition in env order. True if an
+        episode ended."""
+        c, p = self.config, self.progress
+        timing, perf = p.timing, time.perf_counter
+        t0 = perf()
+        actions = agent.act_batch(p.obs)
+        t1 = perf()
+        collector.step_async(actions)
+        t2 = perf()
+        if isinstance(agent, D3QNAgent):
+            self._log_losses(agent.update_pending())
+        t3 = perf()
+        obs2, rewards, terminated, truncated, infos = collector.step_wait()
+        t4 = perf()
+        timing["act"] += t1 - t0
+        timing["env"] += (t2 - t1) + (t4 - t3)
+        timing["learn"] += t3 - t2
+        done = np.zeros(collector.n, dtype=bool)
+        tau_slot = self._tau_slot
+        for i in range(collector.n):
+            if p.env_steps >= c.total_steps:  # the budget ends inside this lock-step
+                break
+            transition = Transition(p.obs[i], int(actions[i]), float(rewards[i]), obs2[i],
+                                    bool(terminated[i]), bool(truncated[i]))  # fmt: skip
+            t5 = perf()
+            if isinstance(agent, D3QNAgent):
+                agent.observe(transition)
+            else:
+                self._log_losses([agent.learn(transition)])
+            timing["learn"] += perf() - t5
+            p.env_steps += 1
+            bar.update(1)
+            ep, info = p.episodes_in_progress[i], infos[i]
+            ep.actions.append(int(actions[i]))
+            ep.ret += float(rewards[i])
+            ep.tau_counts[tau_slot[info["tau"]]] += 1
+            ep.fallbacks += int(info["fallback"])
+            if p.schedule.log.take(p.env_steps):
+                self._log_scalars(logs, agent, tasks)
+            if terminated[i] or truncated[i]:
+                ep.finished = True
+                self._end_episode(logs, agent, info, bar, ep)
+                done[i] = True
+        p.obs = obs2
+        if done.any():
+            if p.schedule.eval.take(p.env_steps):
+                self._evaluate_and_keep(logs, agent, bar)
+            if p.env_steps < c.total_steps:
+                t6 = perf()
+                weights = self._task_weights(tasks)
+                p.obs = collector.reset_some(done, weights)
+                for i in np.flatnonzero(done):
+                    p.episodes_in_progress[i] = self._new_episode(weights)
+                timing["env"] += perf() - t6
+        return bool(done.any())
+
+    def _task_probabilities(self, weights: list[float] | None) -> np.ndarray:
+        env = self._sampler_env
+        if weights is not None:
+            env.set_task_weights(weights)
+        return env.task_probabilities
+
+    @property
+    def _tau_slot(self) -> dict[float, int]:
+        return {h: i for i, h in enumerate(self.config.actions.horizons)}
+
+    def _log_losses(self, updates: list[dict[str, float]]) -> None:
+        acc = self.progress.loss_acc
+        for logs_step in updates:
+            if "losses/td_error" in logs_step:  # tabular: log 0.5 td^2 as its TD loss
+                td = logs_step["losses/td_error"]
+                logs_step = {"losses/td_loss": 0.5 * td * td, "losses/td_abs": abs(td)}
+            for tag, value in logs_step.items():
+                a = acc.setdefault(tag, [0.0, 0])
+                a[0] += value
+                a[1] += 1
+
+    def _stage_timing(self, agent: Agent, collector: Collector) -> None:
+        """Add the envs' stage seconds (env/...) and the learner's (learn/...) to the timing."""
+        t = self.progress.timing
+        for stage, s in collector.stage_seconds().items():
+            t[f"env/{stage}"] = t.get(f"env/{stage}", 0.0) + s
+        for part, s in getattr(agent, "timing", {}).items():
+            t[f"learn/{part}"] = t.get(f"learn/{part}", 0.0) + s
+
+    def _end_episode(
+        self, logs: MetricsLog, agent: Any, info: Mapping[str, Any], bar: Any, ep: EpisodeProgress
+    ) -> None:
         p = self.progress
-        ep = p.episode
         p.episodes += 1
         success = int(info["outcome"] == "goal")
         task = str(info["task"])
@@ -269,7 +345,7 @@ class Trainer:
             refresh=False,
         )
 
-    def _log_scalars(self, logs: MetricsLog, agent: Any, env: D3DWAEnv) -> None:
+    def _log_scalars(self, logs: MetricsLog, agent: Any, tasks: tuple[str, ...]) -> None:
         p = self.progress
         step = p.env_steps
         for tag, (total, count) in sorted(p.loss_acc.items()):
@@ -280,7 +356,8 @@ class Trainer:
         elapsed = self._wall0 + time.perf_counter() - self._start
         if elapsed > 0:
             logs.scalar(step, "charts/sps", step / elapsed)
-        for task, prob in zip(env.tasks, env.task_probabilities, strict=True):
+        weights = self._task_weights(tasks)
+        for task, prob in zip(tasks, self._task_probabilities(weights), strict=True):
             logs.scalar(step, f"curriculum/p_{task}", prob)
         logs.flush()
 
@@ -310,7 +387,8 @@ class Trainer:
             "wall_time_s": round(p.wall_time, 2),
             "cpu_time_s": round(p.cpu_time, 2),
             "steps_per_s": round(p.env_steps / p.wall_time, 2) if p.wall_time else None,
-            "env_steps_per_s": round(p.env_steps / t["env"], 2) if t["env"] else None,
+            "n_envs": self.config.n_envs,
+            "env_steps_per_s": _env_rate(p.env_steps, self.config.n_envs, t),
             "updates_per_s": round(agent.train_steps / t["learn"], 2) if t["learn"] else None,
             "timing_s": {k: round(v, 2) for k, v in t.items()},
             "epsilon": agent.epsilon(),
@@ -319,6 +397,12 @@ class Trainer:
             "policy": str(self.out / run_dir.POLICY_DIR) if status == "done" else None,
             "resume": str(self.latest),
         }
+
+
+def _env_rate(env_steps: int, n_envs: int, timing: Mapping[str, float]) -> float | None:
+    """Env steps per second the n envs sustain: n / (mean seconds of one env's step)."""
+    seconds = timing.get("env/step") or timing.get("env")
+    return round(n_envs * env_steps / seconds, 2) if seconds else None
 
 
 def train(
