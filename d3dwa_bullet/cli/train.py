@@ -34,6 +34,11 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--seed", type=int, help="override the config's seed")
     p.add_argument(
+        "--n-envs",
+        type=int,
+        help="override n_envs: simulators in lock-step, one worker process each (0: one per core)",
+    )
+    p.add_argument(
         "--export", help="also copy the run's policy here when done (e.g. policies/d3dwa)"
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -49,7 +54,14 @@ def cmd_train(args: argparse.Namespace) -> int:
         train,
     )
 
-    overrides = {"method": args.method, "total_steps": args.total_steps, "seed": args.seed}
+    if args.n_envs is not None and args.n_envs < 0:
+        raise ConfigError(f"--n-envs must be >= 1 (or 0: one per core), got {args.n_envs}")
+    overrides = {
+        "method": args.method,
+        "total_steps": args.total_steps,
+        "seed": args.seed,
+        "n_envs": args.n_envs,
+    }
     if args.resume and not args.out:
         raise ConfigError("--resume needs --out DIR (the run to continue)")
     if args.config:

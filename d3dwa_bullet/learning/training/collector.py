@@ -166,10 +166,20 @@ class Collector:
         return total
 
     def close(self) -> None:
-        try:
-            if isinstance(self.envs, AsyncVectorEnv):
-                self.envs.close(terminate=self._broken)
-            else:
-                self.envs.close()
-        except _LOST:  # a dead worker has nothing left to close
-            pass
+        envs = getattr(self, "envs", None)
+        if envs is None:
+            return
+        if isinstance(envs, AsyncVectorEnv) and self._broken:
+            # A lost worker leaves a call pending on a dead pipe, where the vector env's own
+            # close would fail (and warn): stop the rest of the workers directly.
+            for process in envs.processes:
+                if process.is_alive():
+                    process.terminate()
+            for process in envs.processes:
+                process.join(timeout=10)
+            for pipe in envs.parent_pipes:
+                if pipe is not None:
+                    pipe.close()
+            envs.closed = True
+            return
+        envs.close()

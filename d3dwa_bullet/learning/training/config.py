@@ -132,7 +132,7 @@ class TrainConfig:
         set_("agent", replace(agent, seed=int(self.seed)))
         if self.reward_scale is None:
             set_("reward_scale", DEFAULT_REWARD_SCALE[family])
-        if isinstance(self.n_envs, int) and not isinstance(self.n_envs, bool) and self.n_envs == 0:
+        if type(self.n_envs) is int and self.n_envs == 0:
             set_("n_envs", os.cpu_count() or 1)
         checks: list[tuple[str, bool, str]] = [
             ("total_steps", self.total_steps >= 1, ">= 1"),
@@ -153,7 +153,11 @@ class TrainConfig:
             ("log_every", self.log_every >= 1, ">= 1"),
             ("keep", self.keep in KEEP, f"one of {KEEP}"),
             ("seed", self.seed >= 0, ">= 0"),
-            ("n_envs", isinstance(self.n_envs, int) and self.n_envs >= 1, ">= 1 (0: one per core)"),
+            (
+                "n_envs",
+                type(self.n_envs) is int and self.n_envs >= 1,
+                "a whole number >= 1 (0: one per core)",
+            ),
             ("vector", self.vector in VECTOR_MODES, f"one of {VECTOR_MODES}"),
             ("noise", bool(self.noise), "non-empty ('none' for noise-free)"),
         ]
