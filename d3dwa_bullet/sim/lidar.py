@@ -7,10 +7,10 @@ from dataclasses import dataclass
 from operator import itemgetter
 
 import numpy as np
-import pybullet as p
 
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.robot import LIDAR_MOUNT
+from d3dwa_bullet.sim.bullet import p
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D
 
 

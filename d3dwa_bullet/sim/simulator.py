@@ -32,12 +32,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as p
 
 from d3dwa_bullet.geometry import wrap_angle_modular
 from d3dwa_bullet.params import RobotLimits, SimParams
 from d3dwa_bullet.resources import urdf_path
 from d3dwa_bullet.robot import AXLE_HEIGHT, TRACK, WHEEL_RADIUS
+from d3dwa_bullet.sim.bullet import p
 from d3dwa_bullet.sim.estimator import PoseEstimator
 from d3dwa_bullet.sim.lidar import Lidar, LidarParams
 from d3dwa_bullet.sim.noise import NoiseModel, encoder_wheel_speed, ground_wheel_speed
