@@ -1,9 +1,10 @@
 """The simulation layer: the PyBullet shell and the robot's sensing and estimation.
 
 Modules: ``simulator`` (``Simulator``: a driven Kachaka in a static world), ``lidar`` (the
-2D lidar's rays), ``bullet`` (the one PyBullet import, without its start-up banner), ``scan`` (the ``LaserScan`` record and ``Pose2D``), ``odometry`` (wheel
-odometry), ``estimator`` (the EKF), ``noise_config`` (what each noise model does) and
-``noise`` (``NoiseModel``: one episode's seeded noise).
+2D lidar's rays), ``bullet`` (the one PyBullet import, without its start-up banner),
+``scan`` (the ``LaserScan`` record and ``Pose2D``), ``odometry`` (wheel odometry),
+``estimator`` (the EKF), ``noise_config`` (what each noise model does) and ``noise``
+(``NoiseModel``: one episode's seeded noise).
 
 The names below are re-exported lazily: each is imported on first access, so importing a
 pure module such as ``d3dwa_bullet.sim.scan`` (which runs this file first) pulls in no
