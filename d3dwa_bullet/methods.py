@@ -83,5 +83,11 @@ def make_controller(name: str, policy_path: str | Path | None = None) -> Control
             f"{path}: no policy for method {name!r}; train one with `d3dwa train --method {name}` "
             "or pass --policy PATH"
         )
+    seeds = sorted(p.name for p in path.glob("seed-*") if p.is_dir()) if path.is_dir() else []
+    if seeds and not (path / "meta.json").exists():
+        raise CheckpointError(
+            f"{path}: holds training seeds ({', '.join(seeds)}), not one policy; evaluating "
+            f"every seed is not built yet: pass --policy {path / seeds[0]} (one seed)"
+        )
     policy, actions, _ = load_policy(path, expected_actions=LEARNED[name])
     return Controller(name, policy=policy, actions=actions, source=str(path))

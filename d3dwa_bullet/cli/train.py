@@ -34,6 +34,11 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--seed", type=int, help="override the config's seed")
     p.add_argument(
+        "--seeds",
+        help="train every seed of the config into OUT/seed-<k>/ (e.g. 0-4 or 0,3,7); "
+        "--export DIR then ships DIR/seed-<k>/",
+    )
+    p.add_argument(
         "--n-envs",
         type=int,
         help="override n_envs: simulators in lock-step, one worker process each (0: one per core)",
@@ -54,6 +59,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         train,
     )
 
+    if args.seeds is not None:
+        return _train_seeds(args)
     if args.n_envs is not None and args.n_envs < 0:
         raise ConfigError(f"--n-envs must be >= 1 (or 0: one per core), got {args.n_envs}")
     overrides = {
@@ -112,4 +119,61 @@ def cmd_train(args: argparse.Namespace) -> int:
     print(f"run: {out}\npolicy: {summary['policy']}")
     if "exported" in summary:
         print(f"exported: {summary['exported']}")
+    return 0
+
+
+def _train_seeds(args: argparse.Namespace) -> int:
+    """``--seeds``: one run per seed under --out (``learning.training.seeds``)."""
+    # start-up cost: training imports torch (~1 s)
+    from d3dwa_bullet.learning.training import load_train_config
+    from d3dwa_bullet.learning.training.seeds import SeedOutcome, parse_seeds, train_seeds
+
+    seeds = parse_seeds(args.seeds)
+    if args.seed is not None:
+        raise ConfigError("--seed and --seeds exclude each other: give one")
+    if not args.out:
+        raise ConfigError("--seeds needs --out DIR (the runs go to DIR/seed-<k>/)")
+    if not args.config:
+        if not args.method:
+            raise ConfigError("--seeds needs --config FILE or --method NAME")
+        args.config = str(configs_dir() / f"{args.method}.yaml")
+    if args.n_envs is not None and args.n_envs < 0:
+        raise ConfigError(f"--n-envs must be >= 1 (or 0: one per core), got {args.n_envs}")
+    config = load_train_config(
+        args.config, method=args.method, total_steps=args.total_steps, n_envs=args.n_envs
+    )
+    quiet = args.no_progress or args.json
+
+    def report(o: SeedOutcome) -> None:
+        if args.json:
+            return
+        what = {"done": "done", "skipped": "already complete", "interrupted": "interrupted",
+                "failed": f"FAILED: {o.error}"}[o.status]  # fmt: skip
+        print(
+            f"seed {o.seed}: {what} ({o.out})" + (f", exported {o.exported}" if o.exported else "")
+        )
+
+    try:
+        outcomes = train_seeds(config, args.out, seeds, resume=args.resume, export=args.export,
+                               progress=not quiet, on_seed=report)  # fmt: skip
+    except KeyboardInterrupt:  # a second Ctrl-C: stopped without saving
+        print(
+            f"d3dwa: training aborted; resume with --seeds {args.seeds} --resume", file=sys.stderr
+        )
+        return 130
+    if args.json:
+        print(json.dumps([{"seed": o.seed, "out": str(o.out), "status": o.status,
+                           "error": o.error, "exported": str(o.exported) if o.exported else None}
+                          for o in outcomes]))  # fmt: skip
+    failed = [o for o in outcomes if o.status == "failed"]
+    if failed:
+        names = ", ".join(str(o.seed) for o in failed)
+        print(
+            f"d3dwa: error: seed(s) {names} failed (the others are kept); continue with "
+            f"d3dwa train --config {args.config} --seeds {args.seeds} --out {args.out} --resume",
+            file=sys.stderr,
+        )
+        return 2
+    if any(o.status == "interrupted" for o in outcomes):
+        return 130
     return 0

@@ -24,6 +24,8 @@ from d3dwa_bullet.learning.env import D3DWAEnv
 from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, resolve_world
 from d3dwa_bullet.methods import LEARNED
 from d3dwa_bullet.planning.actions import ActionSet
+from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
+from d3dwa_bullet.world.registry import world_names
 
 #: Reward scale by agent family: the D3QN uses the baseline magnitudes / 100 (paper).
 DEFAULT_REWARD_SCALE = {"d3qn": 0.01, "dqdwa": 1.0}
@@ -82,8 +84,12 @@ class TrainConfig:
     """Agent hyper-parameters (D3QNConfig or DQDWAConfig); None: that class's defaults."""
     eval_every: int = 25_000
     """Greedy evaluation every this many env steps (at the next episode end); 0: never."""
-    eval_worlds: tuple[str, ...] = TRAIN_WORLDS
-    """Worlds of the periodic evaluation: training worlds only (generated names allowed)."""
+    eval_worlds: tuple[str, ...] = ("R1-style-s1", "R2-style-s1", "R3-style-s1")
+    """Worlds of the periodic greedy evaluation: training material only. With ``keep:
+    best`` they are the validation set that picks the shipped checkpoint, so they must also
+    be disjoint from every world a results table reports: no shipped world file (TS1-TS4 are
+    Table I), no unseen layout (generator seeds from 2^31 up); generated layouts below 2^31
+    or the user's own files."""
     eval_seeds: tuple[int, ...] = (0,)
     """Episode seeds of each evaluation world."""
     eval_noise: str = "none"
@@ -238,6 +244,33 @@ def load_train_config(path: str | os.PathLike[str], **overrides: Any) -> TrainCo
                 )
             data[key] = value
     return TrainConfig.from_dict(data, str(p))
+
+
+def check_selection_rule(config: TrainConfig) -> None:
+    """ConfigError unless the config's ``keep: best`` selects on training material that
+    no results table reports (see ``TrainConfig.eval_worlds``). Checked when a run starts,
+    not when a config loads: the configs shipped beside earlier policies stay readable."""
+    if config.keep == "best":
+        for name in config.eval_worlds:
+            check_validation_world(name)
+
+
+def check_validation_world(name: str) -> None:
+    """ConfigError unless ``name`` may select a checkpoint (``keep: best``)."""
+    text = str(name)
+    shipped = {n.upper() for n in world_names()}
+    style, sep, seed = text.rpartition("-s")
+    if text.upper() in shipped or Path(text).stem.upper() in shipped:
+        why = f"{text!r} is a shipped world, which the results tables report"
+    elif sep and seed.isdigit() and int(seed) >= UNSEEN_LAYOUT_SEED_BASE:
+        why = f"{text!r} is an unseen layout (seed >= 2^31), which the noise sweep reports"
+    else:
+        return
+    raise ConfigError(
+        f"TrainConfig.eval_worlds: keep: best picks the shipped checkpoint by these worlds, so "
+        f"they must be training material no table reports; {why}. Use generated layouts "
+        "such as R1-style-s1 (seeds below 2^31), or keep: final"
+    )
 
 
 def make_env(config: TrainConfig, worlds: Sequence[str] | None = None) -> D3DWAEnv:

@@ -35,7 +35,11 @@ from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.learning.agents.checkpoint import CONFIG_FILE, META_FILE
-from d3dwa_bullet.learning.training.config import TrainConfig, load_train_config
+from d3dwa_bullet.learning.training.config import (
+    TrainConfig,
+    check_selection_rule,
+    load_train_config,
+)
 
 RUN_FILE = "run.json"
 EPISODES_FILE = "episodes.csv"
@@ -63,6 +67,7 @@ def check_new_run(out: Path, config: TrainConfig | None) -> TrainConfig:
             f"{out}: already holds a training run; pass --resume to continue it "
             "or choose a new --out directory"
         )
+    check_selection_rule(config)
     return config
 
 

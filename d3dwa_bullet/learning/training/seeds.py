@@ -1,0 +1,128 @@
+"""Training one config over several seeds: ``<out>/seed-<k>/`` per seed, resumable per seed.
+
+A method's result is its distribution over training seeds (docs/design.md#learning-protocol),
+so ``d3dwa train --config C --seeds 0-4 --out runs/NAME`` trains every seed of one committed
+config into its own run directory, one after the other (each run already uses every core).
+With ``--resume`` a seed whose run is complete is skipped, one with a checkpoint continues
+and one never started starts. A seed that fails is reported and the others still run; the
+failed ones resume later. ``--export DIR`` ships every finished seed as ``DIR/seed-<k>/``.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from d3dwa_bullet.errors import ConfigError, D3DWAError
+from d3dwa_bullet.learning.training.checkpoints import export_policy
+from d3dwa_bullet.learning.training.config import TrainConfig, check_selection_rule
+from d3dwa_bullet.learning.training.run_dir import SUMMARY_FILE, checkpoint_dir
+from d3dwa_bullet.learning.training.trainer import train
+
+SEED_DIR = "seed-{}"
+
+
+def parse_seeds(text: str, option: str = "--seeds") -> list[int]:
+    """'0-4' -> [0, 1, 2, 3, 4]; '0,3,7' -> [0, 3, 7]; ranges and lists mix ('0-2,5').
+
+    ConfigError naming ``option`` and the bad part for anything else (negative, empty,
+    reversed ranges, repeats)."""
+    seeds: list[int] = []
+    for part in text.split(","):
+        part = part.strip()
+        try:
+            if "-" in part[1:]:
+                lo, hi = (int(x) for x in part.split("-", 1))
+                if hi < lo:
+                    raise ValueError
+                seeds.extend(range(lo, hi + 1))
+            else:
+                seeds.append(int(part))
+        except ValueError:
+            raise ConfigError(
+                f"{option}: {part!r} in {text!r} is not a seed or a range like 0-4"
+            ) from None
+    if any(s < 0 for s in seeds):
+        raise ConfigError(f"{option}: seeds must be >= 0, got {text!r}")
+    if len(set(seeds)) != len(seeds):
+        raise ConfigError(f"{option}: {text!r} names a seed twice")
+    return seeds
+
+
+def seed_dir(out: Path, seed: int) -> Path:
+    return out / SEED_DIR.format(seed)
+
+
+@dataclass
+class SeedOutcome:
+    """What happened to one seed: its run directory, status, summary or error."""
+
+    seed: int
+    out: Path
+    status: str
+    """'done', 'skipped' (already complete), 'interrupted' or 'failed'."""
+    summary: dict[str, Any] | None = None
+    error: str | None = None
+    exported: Path | None = None
+
+
+def _complete(out: Path, total_steps: int) -> bool:
+    path = out / SUMMARY_FILE
+    if not path.is_file():
+        return False
+    summary = json.loads(path.read_text())
+    return summary.get("status") == "done" and int(summary.get("env_steps", -1)) >= total_steps
+
+
+def train_seeds(
+    config: TrainConfig,
+    out: str | Path,
+    seeds: Sequence[int],
+    resume: bool = False,
+    export: str | Path | None = None,
+    progress: bool = True,
+    on_seed: Callable[[SeedOutcome], None] | None = None,
+) -> list[SeedOutcome]:
+    """Train ``config`` once per seed into ``out/seed-<k>/`` (module docstring).
+
+    Without ``resume``, ConfigError if any seed's directory already holds a run (before
+    anything trains). A KeyboardInterrupt stops after the current seed's checkpoint.
+    """
+    out = Path(out)
+    if not seeds:
+        raise ConfigError("--seeds: no seed given")
+    check_selection_rule(config)
+    if not resume:
+        taken = [
+            str(seed_dir(out, s)) for s in seeds if (seed_dir(out, s) / "config.json").exists()
+        ]
+        if taken:
+            raise ConfigError(
+                f"{taken[0]} already holds a training run; continue with --resume or choose "
+                "another --out"
+            )
+    outcomes: list[SeedOutcome] = []
+    for seed in seeds:
+        run = seed_dir(out, seed)
+        seeded = replace(config, seed=seed)
+        if resume and _complete(run, seeded.total_steps):
+            outcome = SeedOutcome(seed, run, "skipped")
+        else:
+            again = resume and checkpoint_dir(run, "latest").is_dir()
+            try:
+                summary = train(seeded, run, resume=again, progress=progress)
+            except D3DWAError as err:
+                outcome = SeedOutcome(seed, run, "failed", error=str(err))
+            else:
+                outcome = SeedOutcome(seed, run, summary["status"], summary=summary)
+        if export is not None and outcome.status in ("done", "skipped"):
+            outcome.exported = export_policy(run, seed_dir(Path(export), seed), seeded.keep)
+        outcomes.append(outcome)
+        if on_seed is not None:
+            on_seed(outcome)
+        if outcome.status == "interrupted":
+            break
+    return outcomes

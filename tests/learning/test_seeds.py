@@ -1,0 +1,122 @@
+"""Training over seeds: one run directory per seed, resumable per seed, every seed exported."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import torch
+
+import d3dwa_bullet.learning.training.seeds as seeds_module
+from d3dwa_bullet.cli.app import main
+from d3dwa_bullet.errors import ConfigError, TrainingError
+from d3dwa_bullet.learning.training import TrainConfig, load_train_config, train
+from d3dwa_bullet.learning.training.seeds import parse_seeds, train_seeds
+from d3dwa_bullet.resources import configs_dir, policies_dir
+from tests.learning.test_training import TINY_WORLD, _config, _weights
+
+
+@pytest.fixture
+def tiny(tmp_path: Path) -> str:
+    path = tmp_path / "tiny.yaml"
+    path.write_text(TINY_WORLD)
+    return str(path)
+
+
+@pytest.mark.parametrize(
+    ("text", "seeds"),
+    [("0-4", [0, 1, 2, 3, 4]), ("0,3,7", [0, 3, 7]), ("2", [2]), ("0-1,5", [0, 1, 5])],
+)
+def test_parse_seeds(text: str, seeds: list[int]) -> None:
+    assert parse_seeds(text) == seeds
+
+
+@pytest.mark.parametrize("text", ["", "a", "3-1", "0,0", "-1", "1-", "0-2,2"])
+def test_parse_seeds_refuses(text: str) -> None:
+    with pytest.raises(ConfigError, match="--seeds"):
+        parse_seeds(text)
+
+
+def test_every_seed_trains_into_its_folder_and_resumes(tiny: str, tmp_path: Path) -> None:
+    out, export = tmp_path / "runs", tmp_path / "policies"
+    config = _config(tiny, total_steps=40)
+    done = train_seeds(config, out, [0, 2], export=export, progress=False)
+    assert [(o.seed, o.status) for o in done] == [(0, "done"), (2, "done")]
+    for k in (0, 2):
+        saved = json.loads((out / f"seed-{k}" / "config.json").read_text())
+        assert saved["seed"] == k
+        assert (export / f"seed-{k}" / "weights.pt").is_file()
+        assert (export / f"seed-{k}" / "config.json").is_file()
+    w0, w2 = _weights(export / "seed-0"), _weights(export / "seed-2")
+    assert any(not torch.equal(w0[k], w2[k]) for k in w0)  # the seeds really differ
+    with pytest.raises(ConfigError, match="already holds a training run"):
+        train_seeds(config, out, [0, 2], progress=False)
+    again = train_seeds(config, out, [0, 1, 2], resume=True, progress=False)
+    assert [o.status for o in again] == ["skipped", "done", "skipped"]
+
+
+def test_a_failing_seed_is_reported_and_the_others_kept(
+    tiny: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    real_train = seeds_module.train
+
+    def train(config: TrainConfig, out: Path, **kw):
+        if config.seed == 1:
+            raise TrainingError(f"{out}: environment worker 0 died mid-run")
+        return real_train(config, out, **kw)
+
+    monkeypatch.setattr(seeds_module, "train", train)
+    outcomes = train_seeds(_config(tiny, total_steps=30), tmp_path / "r", [0, 1, 2], progress=False)
+    assert [o.status for o in outcomes] == ["done", "failed", "done"]
+    assert "worker 0 died" in (outcomes[1].error or "")
+
+
+def test_cli_trains_seeds_and_refuses_mixed_options(tiny: str, tmp_path: Path, capsys) -> None:
+    config = tmp_path / "c.yaml"
+    config.write_text(json.dumps(_config(tiny, total_steps=30).to_dict()))
+    out = tmp_path / "runs"
+    argv = ["train", "--config", str(config), "--seeds", "0,1", "--out", str(out), "--no-progress"]
+    assert main(argv) == 0
+    assert "seed 1: done" in capsys.readouterr().out
+    assert main([*argv, "--seed", "3"]) == 2
+    assert "--seed and --seeds" in capsys.readouterr().err
+    assert main(["train", "--config", str(config), "--seeds", "0-x", "--out", str(out)]) == 2
+    assert "'0-x'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("method", ["d3dwa", "d3dwa-weights", "d3dwa-dr", "dqdwa"])
+def test_committed_configs_share_one_budget_and_a_rule_fixed_in_advance(method: str) -> None:
+    config = load_train_config(configs_dir() / f"{method}.yaml")
+    reference = load_train_config(configs_dir() / "d3dwa.yaml")
+    assert config.total_steps == reference.total_steps == 250_000
+    assert config.keep == "best" and config.eval_every > 0
+    assert config.eval_worlds == reference.eval_worlds
+    if config.family == "d3qn":  # one agent config: only the action set and the noise differ
+        assert config.agent == reference.agent
+
+
+def test_keep_best_refuses_worlds_a_table_reports(tiny: str, tmp_path: Path) -> None:
+    for world in ("TS1", "R2-style-s2147483650"):
+        config = _config(tiny, keep="best", eval_every=20, eval_worlds=(world,))
+        with pytest.raises(ConfigError, match="no table reports"):
+            train(config, tmp_path / world, progress=False)
+        with pytest.raises(ConfigError, match="no table reports"):
+            train_seeds(config, tmp_path / f"s-{world}", [0], progress=False)
+        assert not (tmp_path / world / "config.json").exists()
+    ok = _config(tiny, keep="best", eval_every=20, eval_worlds=("R2-style-s3",), total_steps=20)
+    assert train(ok, tmp_path / "ok", progress=False)["status"] == "done"
+    # a shipped policy's own config (selected on TS1-TS4 before this rule) still loads
+    assert load_train_config(policies_dir() / "d3dwa" / "config.json").keep == "best"
+
+
+def test_a_folder_of_seeds_is_not_taken_for_one_policy(tmp_path: Path) -> None:
+    import shutil
+
+    from d3dwa_bullet.errors import CheckpointError
+    from d3dwa_bullet.methods import make_controller
+
+    shutil.copytree(policies_dir() / "d3dwa", tmp_path / "d3dwa" / "seed-0")
+    with pytest.raises(CheckpointError, match="seed-0"):
+        make_controller("d3dwa", tmp_path / "d3dwa")
+    assert make_controller("d3dwa", tmp_path / "d3dwa" / "seed-0").policy is not None
