@@ -48,6 +48,7 @@ def test_every_seed_trains_into_its_folder_and_resumes(tiny: str, tmp_path: Path
         assert saved["seed"] == k
         assert (export / f"seed-{k}" / "weights.pt").is_file()
         assert (export / f"seed-{k}" / "config.json").is_file()
+        assert json.loads((export / f"seed-{k}" / "summary.json").read_text())["status"] == "done"
     w0, w2 = _weights(export / "seed-0"), _weights(export / "seed-2")
     assert any(not torch.equal(w0[k], w2[k]) for k in w0)  # the seeds really differ
     with pytest.raises(ConfigError, match="already holds a training run"):

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import ConfigError, D3DWAError
+from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.learning.training.checkpoints import export_policy
 from d3dwa_bullet.learning.training.config import TrainConfig, check_selection_rule
 from d3dwa_bullet.learning.training.run_dir import SUMMARY_FILE, checkpoint_dir
@@ -119,7 +120,10 @@ def train_seeds(
             else:
                 outcome = SeedOutcome(seed, run, summary["status"], summary=summary)
         if export is not None and outcome.status in ("done", "skipped"):
-            outcome.exported = export_policy(run, seed_dir(Path(export), seed), seeded.keep)
+            dest = export_policy(run, seed_dir(Path(export), seed), seeded.keep)
+            # the run's summary travels with the policy (counters, evaluations, wall time)
+            atomic_write_text(dest / SUMMARY_FILE, (run / SUMMARY_FILE).read_text())
+            outcome.exported = dest
         outcomes.append(outcome)
         if on_seed is not None:
             on_seed(outcome)
