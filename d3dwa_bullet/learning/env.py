@@ -33,11 +33,20 @@ weights the draw uses (``{"task_weights": [...]}``, a curriculum's hook that als
 through a vector env's reset). ``reset_rng_state`` is the env RNG's state just before the
 current episode's draw; ``rebuild`` re-runs an episode from that state and its actions
 (exact resumption of a training run).
+
+Rendering (``render_mode``, checked at construction): ``"rgb_array"`` makes ``render()``
+return a top-down (H, W, 3) uint8 RGB frame of the world, the robot's body and footprint at
+its true pose, the current scan and the rollout the planner chose at the last step
+(``learning.render``); ``"human"`` runs the episodes in the PyBullet GUI instead of DIRECT
+mode and paces ``step`` to ``metadata["render_fps"]`` (the control rate, 10 Hz), so
+``render()`` has nothing to return. Rendering never changes an episode: the same seed gives
+the same steps with or without it.
 """
 
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -47,10 +56,12 @@ from gymnasium import spaces
 
 from d3dwa_bullet.episode import Episode, EpisodeConfig, EpisodeResult
 from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.learning.render import RenderParams, TopDownCanvas, body_to_world, rollout_path
 from d3dwa_bullet.learning.reward import reward
 from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, TaskSampler
 from d3dwa_bullet.params import RewardParams
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
+from d3dwa_bullet.planning.planner import PlannerAction
 from d3dwa_bullet.timing import StageClock, perf
 from d3dwa_bullet.world.model import World
 
@@ -77,9 +88,11 @@ class D3DWAEnv(gym.Env):
     route_start_prob: probability that an episode on one of ``worlds`` starts at a random
         point of the first ``route_start_span`` of its route instead of its own start
         (``route_start``; never for generated layouts or a world pinned by reset options).
+    render_mode: None, "rgb_array" (top-down frames from ``render()``) or "human" (the
+        PyBullet GUI, paced to the control rate).
     """
 
-    metadata: dict[str, Any] = {"render_modes": []}
+    metadata: dict[str, Any] = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
 
     def __init__(
         self,
@@ -96,8 +109,16 @@ class D3DWAEnv(gym.Env):
         allow_eval_worlds: bool = False,
         route_start_prob: float = 0.0,
         route_start_span: float = 0.8,
+        render_mode: str | None = None,
     ) -> None:
         super().__init__()
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ConfigError(
+                f"render_mode {render_mode!r} is not one of {self.metadata['render_modes']}"
+            )
+        self.render_mode = render_mode
+        if episode_config.sim.control_hz != self.metadata["render_fps"]:
+            self.metadata = {**self.metadata, "render_fps": episode_config.sim.control_hz}
         self.sampler = TaskSampler(
             worlds=worlds,
             generators=generators,
@@ -131,6 +152,10 @@ class D3DWAEnv(gym.Env):
         """The env RNG's state just before the current episode's draw (see ``rebuild``)."""
         self.clock = StageClock()
         """Seconds per stage over the finished episodes (``stage_seconds`` adds the current)."""
+        self.last_action: PlannerAction | None = None
+        """The planner parameters of the current episode's last step (None before it)."""
+        self._canvas: TopDownCanvas | None = None
+        self._next_frame = 0.0
 
     # --- sampling -------------------------------------------------------------------------
 
@@ -177,7 +202,9 @@ class D3DWAEnv(gym.Env):
             noise=self.sampler.noise(noise_name, noise_seed),
             noise_name=noise_name,
             config=self.episode_config,
+            gui=self.render_mode == "human",
         )
+        self.last_action = None
         self.clock.charge("reset", t0)
         obs = self._observation(self.episode.observe())
         if self.episode.outcome is not None:
@@ -202,6 +229,7 @@ class D3DWAEnv(gym.Env):
         planner_action = self.actions.decode(index)
         d_goal, d_obs = ep.goal_distance, ep.obstacle_distance
         plan = ep.act(index, planner_action)
+        self.last_action = planner_action
         obs = self._observation(ep.observe())
         outcome = ep.outcome
         r = reward(
@@ -217,11 +245,61 @@ class D3DWAEnv(gym.Env):
             fallback=bool(plan.fallback),
         )
         self.clock.charge("step", t0)
+        if self.render_mode == "human":
+            self._pace()
         return obs, r, terminated, truncated, info
+
+    def render(self) -> np.ndarray | None:
+        """The current frame: (H, W, 3) uint8 with ``render_mode="rgb_array"``, else None.
+
+        The frame's size is fixed per world (``learning.render.TopDownCanvas``).
+        """
+        if self.render_mode != "rgb_array":
+            if self.render_mode is None:
+                gym.logger.warn("D3DWAEnv.render: no render_mode was given; nothing to draw")
+            return None
+        ep = self.episode
+        if ep is None or self.world is None:
+            raise RuntimeError("D3DWAEnv.render: call reset() first")
+        if self._canvas is None or self._canvas.world is not self.world:
+            self._canvas = TopDownCanvas(
+                self.world,
+                RenderParams(goal_tolerance=self.episode_config.termination.goal_tolerance),
+                self.episode_config.planner.footprint,
+            )
+        pose = ep.truth[-1]
+        rollout = None
+        plan, action = ep.last_plan, self.last_action
+        if plan is not None and action is not None and len(ep.truth) > 1:
+            # planned at the pose before the last control period; (v, w) is the chosen
+            # sample (the fallback's too)
+            path = rollout_path(plan.v, plan.w, action.tau, self.episode_config.planner.dt)
+            rollout = body_to_world(ep.truth[-2], path)
+        t = ep.sim.step_count * self.episode_config.sim.control_period
+        text = f"{self.world.name}  t = {t:.1f} s"
+        if action is not None:
+            text += f"  tau = {action.tau:g} s"
+        if ep.outcome is not None:
+            text += f"  {ep.outcome}"
+        return self._canvas.frame(
+            pose,
+            ep.points,
+            rollout=rollout,
+            fallback=bool(plan is not None and plan.fallback),
+            trail=np.asarray(ep.truth)[:, :2],
+            text=text,
+        )
 
     def close(self) -> None:
         self._close_episode()
         super().close()
+
+    def _pace(self) -> None:
+        """Hold a human-mode step to one control period of wall time (watchable speed)."""
+        now = time.monotonic()
+        if now < self._next_frame:
+            time.sleep(self._next_frame - now)
+        self._next_frame = max(now, self._next_frame) + 1.0 / self.metadata["render_fps"]
 
     # --- helpers --------------------------------------------------------------------------
 
