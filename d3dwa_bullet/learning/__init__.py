@@ -2,8 +2,9 @@
 
 Modules: ``env`` (``D3DWAEnv``, registered as ``d3dwa_bullet/D3DWA-v0``), ``tasks``
 (world, generator, noise and route-start sampling; the training-world guard), ``reward``
-(R1 + R2 + R3, pure: no torch, no pybullet), ``agents/`` (D3QN, DQDWA, checkpoints,
-greedy policies) and ``training/`` (``train``, ``TrainConfig``).
+(R1 + R2 + R3, pure: no torch, no pybullet), ``render`` (the env's top-down frames, numpy
+and OpenCV), ``agents/`` (D3QN, DQDWA, checkpoints, greedy policies) and ``training/``
+(``train``, ``TrainConfig``).
 
 The names below are re-exported lazily: each is imported on first access, so importing
 ``d3dwa_bullet.learning.reward`` (which runs this file first) pulls in neither torch nor
