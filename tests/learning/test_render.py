@@ -63,7 +63,8 @@ def test_an_unknown_render_mode_is_refused(mode):
 def test_without_a_render_mode_render_returns_none():
     env = D3DWAEnv(worlds=(WORLD,))
     env.reset(seed=0)
-    assert env.render() is None
+    with pytest.warns(UserWarning, match="no render_mode"):
+        assert env.render() is None
     env.close()
 
 
@@ -128,10 +129,26 @@ def test_rendering_after_the_episode_ended_still_works(env):
     assert frame.shape == rd.TopDownCanvas(WORLD).shape  # rendering after the end works
 
 
-def test_check_env_with_the_render_check():
-    env = D3DWAEnv(worlds=(WORLD,), render_mode="rgb_array")
+@pytest.fixture
+def gui_modes(monkeypatch):
+    """PyBullet's connect, recorded: the GUI cannot open headless, so DIRECT answers it."""
+    modes: list[int] = []
+    connect = pybullet.connect
+
+    def fake_connect(mode, *args, **kwargs):
+        modes.append(mode)
+        return connect(pybullet.DIRECT)
+
+    monkeypatch.setattr(pybullet, "connect", fake_connect)
+    return modes
+
+
+def test_check_env_with_the_render_check_of_every_mode(gui_modes):
+    """Gymnasium's checker renders this env and one made in each declared mode."""
+    env = gym.make(ENV_ID, worlds=(WORLD,), render_mode="rgb_array").unwrapped
     check_env(env)
     env.close()
+    assert pybullet.GUI in gui_modes  # the "human" env it made opened the GUI
 
 
 def test_rollout_path_is_the_unicycle_arc():
@@ -174,16 +191,17 @@ def test_render_collection_gathers_one_frame_per_step():
 
 
 def _record(tmp_path: Path, steps: int) -> list[Path]:
+    folder = tmp_path / "videos"
     env = RecordVideo(
         gym.make(ENV_ID, worlds=(WORLD,), render_mode="rgb_array"),
-        str(tmp_path),
+        str(folder),
         episode_trigger=lambda _: True,
     )
     env.reset(seed=0)
     for _ in range(steps):
         env.step(PROGRESS)
     env.close()  # stops the recording and writes the episode's video
-    return sorted(tmp_path.glob("*.mp4"))
+    return sorted(folder.glob("*.mp4"))
 
 
 class _FrameSink:
@@ -221,27 +239,18 @@ def test_record_video_writes_an_mp4(tmp_path):
     assert len(videos) == 1 and videos[0].stat().st_size > 1000
 
 
-def test_human_mode_opens_the_gui_and_paces_steps(monkeypatch):
-    """The GUI cannot open headless: connect is recorded and answered with DIRECT."""
-    modes: list[int] = []
-    connect = pybullet.connect
-
-    def fake_connect(mode, *args, **kwargs):
-        modes.append(mode)
-        return connect(pybullet.DIRECT)
-
+def test_human_mode_opens_the_gui_and_paces_steps(monkeypatch, gui_modes):
     clock, sleeps = [100.0], []  # a wall clock that only sleeping moves
 
     def fake_sleep(seconds: float) -> None:
         sleeps.append(seconds)
         clock[0] += seconds
 
-    monkeypatch.setattr(pybullet, "connect", fake_connect)
     monkeypatch.setattr("d3dwa_bullet.learning.env.time.monotonic", lambda: clock[0])
     monkeypatch.setattr("d3dwa_bullet.learning.env.time.sleep", fake_sleep)
     env = D3DWAEnv(worlds=(WORLD,), render_mode="human")
     env.reset(seed=0)
-    assert modes == [pybullet.GUI]
+    assert gui_modes == [pybullet.GUI]
     assert env.render() is None
     for _ in range(3):
         env.step(PROGRESS)

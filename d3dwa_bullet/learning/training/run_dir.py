@@ -8,6 +8,7 @@ Layout::
     <out>/metrics.jsonl        TensorBoard-style records {"step", "tag", "value"} (charts/...,
                                losses/..., eval/..., curriculum/...) and the per-episode
                                horizon histogram {"step", "tag": "planner/tau", "histogram"}
+    <out>/tb/                  the same records as TensorBoard event files (logs.py)
     <out>/learning_curve.png   return and success rate vs environment steps
     <out>/summary.json         status, counters, wall time, throughput, evaluations
     <out>/checkpoints/latest/  resumable: policy + config.json + training state
@@ -15,8 +16,6 @@ Layout::
     <out>/checkpoints/final/   policy at the end of the budget
     <out>/policy/              the policy to ship (``keep``: best or final) + config.json
                                + learning_curve.png, no replay buffer
-
-(and ``<out>/tb/`` if ``torch.utils.tensorboard`` is importable.)
 
 A new run refuses a directory that already holds one; a resumed run needs its own
 ``config.json`` and ``checkpoints/latest``, and a config that differs from the saved one
