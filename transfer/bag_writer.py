@@ -10,6 +10,16 @@ whose decoding gives back the same float64, for yaw in (-pi, pi]).
 
 A failure inside ``with BagRecorder(...)`` still closes the bag properly: what was written
 up to the failure stays readable.
+
+Storage and version: the storage follows the path's suffix unless given (``resolve_storage``:
+``x.mcap`` is an MCAP bag, ``x.bag`` a ROS 1 bag, anything else a sqlite3 bag; a suffix that
+contradicts an explicit storage is refused, never a sqlite3 bag named ``x.mcap``). A ROS 2
+bag is a directory (rosbags names its one data file ``<dir name>.db3`` or ``.mcap``).
+ROS 2 bags are written in rosbag2 metadata version ``DEFAULT_BAG_VERSION`` = 8, the one ROS 2
+Humble reads: Humble's metadata decoder reads each topic's ``offered_qos_profiles`` as one
+YAML string, which version 8 writes, while version 9 (what Jazzy and later write) stores a
+YAML list there, and Humble refuses the whole bag ("bad conversion"). Versions 8 and 9 are
+what rosbags' writer produces (``BAG_VERSIONS``); pass ``version=9`` for Jazzy-only tools.
 """
 
 from __future__ import annotations
@@ -19,7 +29,7 @@ from contextlib import suppress
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 
@@ -39,6 +49,59 @@ from transfer.topics import (
 )
 
 Storage = Literal["sqlite3", "mcap", "ros1"]
+STORAGES: tuple[Storage, ...] = ("sqlite3", "mcap", "ros1")
+#: The storage a path's suffix names (any other suffix: a sqlite3 ROS 2 bag directory).
+SUFFIX_STORAGE: dict[str, Storage] = {".mcap": "mcap", ".bag": "ros1", ".db3": "sqlite3"}
+#: rosbag2 metadata versions rosbags' writer can produce.
+BAG_VERSIONS = (8, 9)
+#: The version ROS 2 Humble reads (module docstring); later distributions read it too.
+DEFAULT_BAG_VERSION = 8
+
+
+def resolve_storage(
+    path: str | Path, storage: str | None = None, *, option: str = "storage"
+) -> Storage:
+    """The storage of a bag written to path: ``storage`` if given, else the suffix's
+    (``SUFFIX_STORAGE``), else sqlite3. BagFormatError for an unknown storage, or one the
+    suffix contradicts; ``option`` is how the messages name the storage setting (the CLI
+    passes ``--storage``)."""
+    path = Path(path)
+    implied = SUFFIX_STORAGE.get(path.suffix)
+    if storage is None:
+        return implied or "sqlite3"
+    if storage not in STORAGES:
+        raise BagFormatError(f"{path}: unknown {option} {storage!r}; use {', '.join(STORAGES)}")
+    if implied is not None and implied != storage:
+        raise BagFormatError(
+            f"{path}: the suffix {path.suffix!r} names a {implied} bag, not {option} {storage!r}; "
+            f"rename the bag or drop {option}"
+        )
+    if storage == "ros1" and implied is None:
+        raise BagFormatError(f"{path}: a ROS 1 bag ({option} 'ros1') must end in '.bag'")
+    return cast(Storage, storage)
+
+
+def check_bag_version(
+    version: int | None, storage: Storage, path: str | Path, *, option: str = "version"
+) -> int | None:
+    """The rosbag2 metadata version to write: ``DEFAULT_BAG_VERSION`` when None, None for a
+    ROS 1 bag (which has no such version). BagFormatError for a version rosbags cannot
+    write, or one given for a ROS 1 bag; ``option`` names the setting in the messages."""
+    if storage == "ros1":
+        if version is not None:
+            raise BagFormatError(
+                f"{path}: {option} {version} is a ROS 2 bag format version; a ROS 1 bag has none"
+            )
+        return None
+    if version is None:
+        return DEFAULT_BAG_VERSION
+    if version not in BAG_VERSIONS:
+        raise BagFormatError(
+            f"{path}: {option} {version} cannot be written; use "
+            f"{' or '.join(map(str, BAG_VERSIONS))} ({DEFAULT_BAG_VERSION}: read by ROS 2 Humble and "
+            f"later, 9: by Jazzy and later)"
+        )
+    return int(version)
 
 
 @dataclass(frozen=True)
@@ -75,8 +138,10 @@ def quantize_scan(scan: LaserScan) -> LaserScan:
 class BagRecorder:
     """Write a bag step by step; a context manager.
 
-    path: a ROS 2 bag directory (storage "sqlite3", the default, or "mcap"), or a ROS 1
-    ``.bag`` file (storage "ros1"). An existing bag is refused unless overwrite=True.
+    path: a ROS 2 bag directory (storage "sqlite3" or "mcap"), or a ROS 1 ``.bag`` file
+    (storage "ros1"); storage None follows the suffix (``resolve_storage``). version: the
+    rosbag2 metadata version of a ROS 2 bag (None: ``DEFAULT_BAG_VERSION``, which ROS 2
+    Humble reads). An existing bag is refused unless overwrite=True.
     goal: (x, y) in the odometry frame, written once with the first step.
     Timestamps are integer nanoseconds; every message's header stamp and receive time are
     the step's t_ns (a scan keeps its own stamp_ns when it is non-zero).
@@ -86,7 +151,8 @@ class BagRecorder:
         self,
         path: str | Path,
         *,
-        storage: Storage = "sqlite3",
+        storage: Storage | None = None,
+        version: int | None = None,
         typestore: Any = None,
         topics: TopicMap | None = None,
         frames: Frames | None = None,
@@ -96,17 +162,10 @@ class BagRecorder:
         overwrite: bool = False,
     ) -> None:
         self.path = Path(path)
-        if storage not in ("sqlite3", "mcap", "ros1"):
-            raise BagFormatError(
-                f"{self.path}: unknown storage {storage!r}; use sqlite3, mcap or ros1"
-            )
-        if (storage == "ros1") != (self.path.suffix == ".bag"):
-            raise BagFormatError(
-                f"{self.path}: a ROS 1 bag must end in '.bag' and a ROS 2 bag directory must not "
-                f"(storage={storage!r})"
-            )
-        self.storage = storage
-        self.ros1 = storage == "ros1"
+        self.storage = resolve_storage(self.path, storage)
+        self.version = check_bag_version(version, self.storage, self.path)
+        """rosbag2 metadata version (None for a ROS 1 bag)."""
+        self.ros1 = self.storage == "ros1"
         self.typestore = typestore or default_typestore(self.ros1)
         self.topics = topics or TopicMap()
         self.frames = frames or Frames()
@@ -156,7 +215,8 @@ class BagRecorder:
                 self._writer = Writer1(self.path)
             else:
                 plugin = StoragePlugin.MCAP if self.storage == "mcap" else StoragePlugin.SQLITE3
-                self._writer = Writer2(self.path, version=9, storage_plugin=plugin)
+                version = cast(Literal[8, 9], self.version)  # checked: one of BAG_VERSIONS
+                self._writer = Writer2(self.path, version=version, storage_plugin=plugin)
             self._writer.open()
         except Exception as err:
             raise BagFormatError(f"{self.path}: cannot create bag: {err}") from err

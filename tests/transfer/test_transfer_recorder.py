@@ -35,11 +35,12 @@ def test_overwrite_never_deletes_a_non_bag_directory(tmp_path):
     assert (tmp_path / "precious" / "notes.txt").exists()
 
 
-def test_ros1_needs_a_bag_suffix(tmp_path):
+def test_ros1_needs_a_bag_suffix_and_a_bag_suffix_means_ros1(tmp_path):
     with pytest.raises(BagFormatError, match="must end in '.bag'"):
         BagRecorder(tmp_path / "x", storage="ros1")
-    with pytest.raises(BagFormatError, match="must end in '.bag'"):
-        BagRecorder(tmp_path / "x.bag")
+    assert BagRecorder(tmp_path / "x.bag").storage == "ros1"  # inferred from the suffix
+    with pytest.raises(BagFormatError, match="'.bag' names a ros1 bag, not storage 'sqlite3'"):
+        BagRecorder(tmp_path / "x.bag", storage="sqlite3")
 
 
 def test_scans_are_stored_as_float32_and_quantize_scan_predicts_them(tmp_path):
