@@ -22,7 +22,14 @@ from typing import Any, TextIO
 from d3dwa_bullet.cli.options import parse_floats
 from d3dwa_bullet.errors import BagFormatError, ConfigError, D3DWAError
 from d3dwa_bullet.sim.scan import Pose2D
-from transfer.bag_writer import BagRecorder
+from transfer.bag_writer import (
+    BAG_VERSIONS,
+    DEFAULT_BAG_VERSION,
+    STORAGES,
+    BagRecorder,
+    check_bag_version,
+    resolve_storage,
+)
 from transfer.compare import compare_scans, format_scan_comparison
 from transfer.replay import replay_bag
 from transfer.replay_output import ReplayResult
@@ -165,11 +172,22 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--world", required=True, help="world name or file")
     parser.add_argument("--method", required=True, help="method name")
     parser.add_argument("--policy", type=Path, help="checkpoint for learned methods")
-    parser.add_argument("--out", type=Path, required=True, help="bag path (directory, or .bag)")
+    parser.add_argument(
+        "--out", type=Path, required=True,
+        help="bag path: a ROS 2 bag directory (x.mcap: an MCAP one), or x.bag (ROS 1)",
+    )  # fmt: skip
     parser.add_argument("--noise", default="none", help="randomisation profile name")
     parser.add_argument("--seed", type=int, default=0, help="episode seed")
     parser.add_argument("--time-limit", type=float, help="episode time limit, s (default: world's)")
-    parser.add_argument("--storage", choices=("sqlite3", "mcap", "ros1"), default="sqlite3")
+    parser.add_argument(
+        "--storage", choices=STORAGES,
+        help="bag storage (default: from the --out suffix, .mcap: mcap, .bag: ros1; else sqlite3)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--bag-version", type=int, metavar="N",
+        help=f"rosbag2 metadata version of a ROS 2 bag: {' or '.join(map(str, BAG_VERSIONS))} "
+        f"(default {DEFAULT_BAG_VERSION}, which ROS 2 Humble reads; 9: Jazzy and later only)",
+    )  # fmt: skip
     parser.add_argument("--overwrite", action="store_true", help="replace an existing bag")
 
 
@@ -188,7 +206,11 @@ def run_record(
     extra = {}
     if getattr(args, "time_limit", None) is not None:
         extra["time_limit"] = args.time_limit
-    recorder = BagRecorder(args.out, storage=args.storage, overwrite=args.overwrite)
+    storage = resolve_storage(args.out, args.storage, option="--storage")
+    version = check_bag_version(
+        getattr(args, "bag_version", None), storage, args.out, option="--bag-version"
+    )
+    recorder = BagRecorder(args.out, storage=storage, version=version, overwrite=args.overwrite)
     try:
         with recorder:
             episode = run_episode(
