@@ -145,7 +145,14 @@ def evaluate(
                 (out / name).unlink(missing_ok=True)
         with (
             appending_rows(out, fields) as append,
-            tqdm(total=len(todo), disable=not progress, desc="episodes", unit="ep") as bar,
+            # a resumed run's bar starts at the episodes already in results.csv
+            tqdm(
+                total=len(jobs),
+                initial=len(jobs) - len(todo),
+                disable=not progress,
+                desc="episodes",
+                unit="ep",
+            ) as bar,
         ):
             for job, result in run(_worker, todo, config):
                 save_log(result, out / "logs" / job.log_name)
