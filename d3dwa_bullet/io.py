@@ -1,10 +1,15 @@
-"""Atomic file writes: a reader sees the old file or the new one, never half of either.
+"""Atomic file writes (a reader sees the old file or the new one, never half of either),
+and reading a text file with an error that names it.
 
 Each helper writes to a temporary file beside the target (same directory, so the rename
 never crosses a file system), fsyncs it, then ``os.replace``s it over the target. If the
 write fails, the temporary file is removed and the target is left as it was. The temporary
 name starts with a dot and ends in ``.tmp``; it is created with mode 0666 minus the umask,
 like an ordinary ``open(path, "w")``. The parent directory must exist.
+
+:func:`read_text` reads a UTF-8 file the user named (a world, a profile, a map): a file of
+binary garbage or one that cannot be read is the caller's error class with one line that
+names the file, not a ``UnicodeDecodeError``.
 """
 
 from __future__ import annotations
@@ -14,6 +19,8 @@ import secrets
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, BinaryIO, Protocol
+
+from d3dwa_bullet.errors import D3DWAError
 
 
 class SavesFigure(Protocol):
@@ -60,3 +67,18 @@ def atomic_savefig(fig: SavesFigure, path: str | os.PathLike[str], **kwargs: Any
     if suffix and "format" not in kwargs:
         kwargs["format"] = suffix
     return _atomic_write(path, lambda fh: fig.savefig(fh, **kwargs))
+
+
+def read_text(path: str | os.PathLike[str], error: type[D3DWAError], what: str = "file") -> str:
+    """The text of a UTF-8 file, or ``error`` naming the file when it cannot be read or is
+    not text (what: the kind of file the user meant, for the message: "world file", ...)."""
+    p = Path(path)
+    try:
+        return p.read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        raise error(
+            f"{p}: not a text {what} (byte {err.object[err.start]:#04x} at offset {err.start} "
+            "is not UTF-8)"
+        ) from err
+    except OSError as err:
+        raise error(f"{p}: cannot read: {err.strerror or err}") from err

@@ -29,6 +29,7 @@ from typing import Any
 import yaml
 
 from d3dwa_bullet.errors import UnknownNameError, WorldFormatError
+from d3dwa_bullet.io import read_text
 from d3dwa_bullet.resources import generators_dir
 from d3dwa_bullet.world.fields import required, vector
 
@@ -238,8 +239,9 @@ def load_generator(style: str | Path) -> GeneratorSpec:
                 "or give a path to a generator YAML"
             )
         path = Path(text)
+    text = read_text(path, WorldFormatError, "generator YAML")
     try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as err:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as err:
         raise WorldFormatError(f"{path}: cannot read generator YAML: {err}") from err
     return parse_generator(data, str(path))

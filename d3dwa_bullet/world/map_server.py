@@ -28,6 +28,7 @@ import numpy as np
 import yaml
 
 from d3dwa_bullet.errors import WorldFormatError
+from d3dwa_bullet.io import read_text
 from d3dwa_bullet.world.model import DEFAULT_HEIGHT, Box, World, validate_task
 from d3dwa_bullet.world.sdf import DEFAULT_GOAL, DEFAULT_START
 
@@ -97,9 +98,10 @@ def load_map_world(
     """
     yaml_path = Path(yaml_path)
     where = str(yaml_path)
+    text = read_text(yaml_path, WorldFormatError, "map YAML")
     try:
-        data = yaml.safe_load(yaml_path.read_text())
-    except (OSError, yaml.YAMLError) as err:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as err:
         raise WorldFormatError(f"{where}: cannot read map YAML: {err}") from err
     if not isinstance(data, Mapping):
         raise WorldFormatError(f"{where}: top level must be a mapping, got {type(data).__name__}")

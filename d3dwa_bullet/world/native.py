@@ -31,6 +31,7 @@ import numpy as np
 import yaml
 
 from d3dwa_bullet.errors import WorldFormatError
+from d3dwa_bullet.io import read_text
 from d3dwa_bullet.world.fields import positive, required, vector
 from d3dwa_bullet.world.model import DEFAULT_HEIGHT, Box, Cylinder, Obstacle, World, validate_task
 
@@ -48,8 +49,9 @@ OBSTACLE_KEYS = {
 
 def read_world_yaml(path: Path) -> Any:
     """The parsed content of a YAML world file, or WorldFormatError if it is not YAML."""
+    text = read_text(path, WorldFormatError, "world file")
     try:
-        return yaml.safe_load(path.read_text())
+        return yaml.safe_load(text)
     except yaml.YAMLError as err:
         raise WorldFormatError(f"{path}: not valid YAML: {err}") from err
 
