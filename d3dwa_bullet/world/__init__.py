@@ -30,6 +30,7 @@ from d3dwa_bullet.world.registry import (
     list_worlds,
     load_world,
     load_world_file,
+    world_file_kind,
     world_names,
     world_paths,
 )
@@ -67,6 +68,7 @@ __all__ = [
     "rasterize",
     "shortest_path",
     "validate_task",
+    "world_file_kind",
     "world_from_dict",
     "world_names",
     "world_paths",

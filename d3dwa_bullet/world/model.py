@@ -142,18 +142,29 @@ def validate_task(world: World) -> None:
         raise WorldFormatError(
             f"{world.source}: field 'time_limit' must be > 0, got {world.time_limit!r}"
         )
-    if not world.obstacles:
-        return
-    body = body_outline(world.start)
-    inside_body = np.array(
-        [obstacle_distance(ob, np.array([world.start[:2]]))[0] for ob in world.obstacles]
-    )
-    if (world.distance(body) <= 0.0).any() or (inside_body <= 0.0).any():
+    if start_in_collision(world, world.start):
         raise WorldFormatError(
             f"{world.source}: field 'start' = {list(world.start)} puts the robot body in collision"
         )
-    goal_d = float(world.distance(np.array([world.goal]))[0])
-    if goal_d <= 0.0:
+    if goal_in_obstacle(world, world.goal):
         raise WorldFormatError(
             f"{world.source}: field 'goal' = {list(world.goal)} lies inside an obstacle"
         )
+
+
+def start_in_collision(world: World, start: tuple[float, float, float]) -> bool:
+    """Would the robot body at start (x, y m, yaw rad) touch or overlap an obstacle?"""
+    if not world.obstacles:
+        return False
+    body = body_outline(start)
+    inside_body = np.array(
+        [obstacle_distance(ob, np.array([start[:2]]))[0] for ob in world.obstacles]
+    )
+    return bool((world.distance(body) <= 0.0).any() or (inside_body <= 0.0).any())
+
+
+def goal_in_obstacle(world: World, goal: tuple[float, float]) -> bool:
+    """Does goal (x, y m) lie inside (or on) an obstacle?"""
+    if not world.obstacles:
+        return False
+    return bool(float(world.distance(np.array([goal]))[0]) <= 0.0)

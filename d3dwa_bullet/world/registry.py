@@ -17,6 +17,7 @@ import math
 from collections.abc import Mapping
 from functools import cache
 from pathlib import Path
+from typing import Any
 
 from d3dwa_bullet.errors import UnknownNameError, WorldFormatError
 from d3dwa_bullet.resources import worlds_dir
@@ -40,17 +41,31 @@ def load_world_file(path: str | Path) -> World:
     map_server map) or not (the native format).
     """
     path = Path(path)
+    kind, data = _kind_and_yaml(path)
+    if kind == "sdf":
+        return load_sdf_world(path)
+    if kind == "map_server":
+        return load_map_world(path)
+    return world_from_dict(data, str(path))
+
+
+def world_file_kind(path: str | Path) -> str:
+    """How :func:`load_world_file` reads path: "sdf", "map_server" or "native" (by suffix,
+    and for .yaml by whether the mapping has an ``image`` key); WorldFormatError if none."""
+    return _kind_and_yaml(Path(path))[0]
+
+
+def _kind_and_yaml(path: Path) -> tuple[str, Any]:
+    """(kind of world file, its parsed YAML or None for an SDF file)."""
     if not path.is_file():
         raise WorldFormatError(f"{path}: no such world file")
     suffix = path.suffix.lower()
     if suffix in (".world", ".sdf"):
-        return load_sdf_world(path)
+        return "sdf", None
     if suffix not in (".yaml", ".yml"):
         raise WorldFormatError(f"{path}: unknown world file type {suffix!r} (.yaml, .world, .sdf)")
     data = read_world_yaml(path)
-    if isinstance(data, Mapping) and "image" in data:
-        return load_map_world(path)
-    return world_from_dict(data, str(path))
+    return ("map_server" if isinstance(data, Mapping) and "image" in data else "native"), data
 
 
 @cache
