@@ -34,6 +34,8 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import pickle
+import re
 import shutil
 import tempfile
 from collections.abc import Mapping, Sequence
@@ -320,12 +322,31 @@ def load_checkpoint(
     return agent, meta
 
 
+def torch_load_failure(err: Exception) -> str:
+    """One line on why ``torch.load(..., weights_only=True)`` refused a file.
+
+    torch's own message for a pickle of Python objects runs to several lines and advises
+    loading with ``weights_only=False``, which would run whatever code the file holds:
+    that advice is never passed on; only the object torch refused is named.
+    """
+    text = str(err)
+    if isinstance(err, pickle.UnpicklingError) or "weights_only" in text:
+        refused = re.search(r"Unsupported global: GLOBAL ([\w.]+)", text)
+        what = f" such as {refused.group(1)}" if refused else ""
+        return (
+            f"it holds pickled Python objects{what}, which the safe loader refuses; this "
+            "package's checkpoints hold tensors only"
+        )
+    lines = "; ".join(line.strip() for line in text.splitlines() if line.strip())
+    return f"{type(err).__name__}: {lines}"
+
+
 def _load_weights(agent: D3QNAgent, path: Path) -> None:
     try:
         state = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as err:  # torch raises many types for a damaged pickle/zip
         raise CheckpointError(
-            f"{path}: cannot be read as tensors ({type(err).__name__}: {err})"
+            f"{path}: cannot be read as tensors ({torch_load_failure(err)})"
         ) from err
     if not isinstance(state, Mapping) or not all(
         isinstance(v, torch.Tensor) for v in state.values()

@@ -33,6 +33,7 @@ from d3dwa_bullet.learning.agents.checkpoint import (
     TRAINING_TENSORS_FILE,
     Agent,
     checked_file,
+    torch_load_failure,
 )
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 
@@ -132,7 +133,7 @@ def restore_training_state(directory: str | os.PathLike[str], agent: Agent) -> d
             torch.set_rng_state(tensors["torch_rng"])
         except Exception as err:  # torch raises many types for a damaged or mismatched file
             raise CheckpointError(
-                f"{tpath}: cannot restore target network / optimizer ({type(err).__name__}: {err})"
+                f"{tpath}: cannot restore target network / optimizer ({torch_load_failure(err)})"
             ) from err
         info = state["replay"]
         replay = agent.replay
