@@ -30,6 +30,7 @@ from d3dwa_bullet.evaluation.results import (
     Key,
     appending_rows,
     check_results_dir,
+    check_same_run,
     drop_partial_row,
     load_log,
     order_results,
@@ -125,7 +126,9 @@ def evaluate(
     :mod:`d3dwa_bullet.evaluation.backends`). fields: the CSV columns (CSV_FIELDS plus the
     jobs' extra columns). settings: what the command was (kind, methods, worlds, ...), kept
     in meta.json for ``d3dwa report``. Rows are appended as episodes finish; once every job
-    is in, results.csv is rewritten in the order of jobs, whatever the backend.
+    is in, results.csv is rewritten in the order of jobs, whatever the backend. A directory
+    whose rows these jobs would not resume or extend is refused before any episode runs
+    (ResultsError from :func:`~d3dwa_bullet.evaluation.results.check_same_run`).
     """
     out = Path(out)
     check_results_dir(out, fields)
@@ -136,6 +139,7 @@ def evaluate(
         unique.setdefault(j.key, j)
     jobs = list(unique.values())
     keys = [j.key for j in jobs]
+    check_same_run(out, keys, config, settings or {"kind": "eval"})
     todo = [j for j in jobs if j.key not in done]
     with open_backend(workers, ray_address, needed=bool(todo)) as run:
         (out / "logs").mkdir(parents=True, exist_ok=True)

@@ -17,6 +17,12 @@ same bytes whatever the number of workers and the order episodes finished in. Pa
 from the rows (table.md, sweep.md, report.md) are deleted when a run starts with episodes
 to do and rewritten once it is complete, so a stale page never poses as the result of the
 current job set. Every whole-file write is atomic (:mod:`d3dwa_bullet.io`).
+
+A run into a directory that already holds rows may resume it or extend it (more methods,
+worlds or seeds), never shrink or mix it: :func:`check_same_run` refuses a run whose jobs
+leave out rows of results.csv (meta.json and the pages would then describe fewer rows than
+the file holds) or whose episodes would be computed otherwise than the rows already there
+(another episode config, world file, time limit or policy).
 """
 
 from __future__ import annotations
@@ -35,7 +41,7 @@ import numpy as np
 
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
-from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text
+from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text, read_text
 
 if TYPE_CHECKING:  # for annotations only: this module reads and writes files, runs nothing
     from d3dwa_bullet.episode import EpisodeResult
@@ -59,6 +65,9 @@ DERIVED_PAGES = ("table.md", "sweep.md", "report.md")
 
 Key = tuple[str, str, int, str]
 """(world, method, seed, noise): what identifies an episode in a results directory."""
+EPISODE_SETTINGS = {"time_limit": "--time-limit", "policy": "--policy"}
+"""Settings (meta.json "settings") that change an episode but not its key, with the option
+that sets them: one directory holds one value of each."""
 
 
 def row_key(row: Mapping[str, Any]) -> Key:
@@ -71,14 +80,16 @@ def read_results(out: Path) -> list[dict[str, Any]]:
     path = out / "results.csv"
     if not path.exists():
         return []
-    with path.open(newline="", encoding="utf-8") as fh:
-        rows = list(csv.DictReader(fh))
-    for row in rows:
+    rows = list(csv.DictReader(io.StringIO(read_text(path, ResultsError, "CSV file"), newline="")))
+    for line, row in enumerate(rows, start=2):
         if set(CSV_FIELDS) - set(row):
             raise ResultsError(f"{path}: missing columns {sorted(set(CSV_FIELDS) - set(row))}")
-        row["seed"], row["steps"] = int(row["seed"]), int(row["steps"])
-        for k in ("time_s", "tl_m", "pd_rad", "min_clearance_m"):
-            row[k] = float(row[k])
+        try:
+            row["seed"], row["steps"] = int(row["seed"]), int(row["steps"])
+            for k in ("time_s", "tl_m", "pd_rad", "min_clearance_m"):
+                row[k] = float(row[k])
+        except (TypeError, ValueError) as err:
+            raise ResultsError(f"{path}: line {line}: not a results row ({err})") from err
     return rows
 
 
@@ -88,7 +99,7 @@ def read_meta(out: Path) -> dict[str, Any]:
     if not meta.exists():
         return {}
     try:
-        data = json.loads(meta.read_text())
+        data = json.loads(read_text(meta, ResultsError, "JSON file"))
     except json.JSONDecodeError as err:
         raise ResultsError(f"{meta}: not valid JSON ({err})") from err
     if not isinstance(data, dict):
@@ -145,6 +156,68 @@ def check_results_dir(out: Path, fields: Sequence[str] | None = None) -> None:
             f"{out / 'results.csv'}: columns {header} were written by {kind!r}, this command "
             f"writes {list(fields)}; use another --out directory"
         )
+
+
+def check_same_run(
+    out: Path, keys: Sequence[Key], config: Any, settings: Mapping[str, Any]
+) -> None:
+    """ResultsError unless a run of jobs ``keys`` with ``config`` (an EpisodeConfig) and
+    ``settings`` resumes or extends the rows already in out/results.csv (see the module
+    docstring); the message names what differs. A directory without rows takes any run."""
+    rows = read_results(out)
+    if not rows:
+        return
+    wanted = set(keys)
+    extra = [row_key(r) for r in rows if row_key(r) not in wanted]
+    if extra:
+        parts = []
+        for i, name in enumerate(("worlds", "methods", "seeds", "noise")):
+            listed = {k[i] for k in wanted}
+            absent = sorted({k[i] for k in extra} - listed, key=str)
+            if absent:
+                parts.append(f"{name} {', '.join(map(str, absent))}")
+        what = "; ".join(parts) or "other combinations of the worlds, methods and seeds listed"
+        raise ResultsError(
+            f"{out / 'results.csv'}: holds {len(extra)} episode(s) this command does not list "
+            f"({what}); list them too to extend that evaluation, or use another --out directory"
+        )
+    meta = read_meta(out)
+    here = json.loads(json.dumps(asdict(config), default=str))
+    if "config" in meta and meta["config"] != here:
+        diffs = "; ".join(
+            f"{name} {old!r} there, {new!r} here"
+            for name, old, new in _differences(meta["config"], here)
+        )
+        raise ResultsError(
+            f"{out / 'meta.json'}: its episodes ran with another episode config ({diffs}); "
+            "use the same options to resume, or another --out directory"
+        )
+    before = meta.get("settings", {})
+    for key, option in EPISODE_SETTINGS.items():
+        if (key in before or key in settings) and before.get(key) != settings.get(key):
+            raise ResultsError(
+                f"{out / 'meta.json'}: its episodes ran with {option} {before.get(key)!r}, this "
+                f"command has {settings.get(key)!r}; use the same value to resume, or another "
+                "--out directory"
+            )
+    sources = dict(zip(before.get("worlds", []), before.get("world_sources", []), strict=False))
+    new = dict(zip(settings.get("worlds", []), settings.get("world_sources", []), strict=False))
+    for name in sorted(sources.keys() & new.keys()):
+        if sources[name] != new[name]:
+            raise ResultsError(
+                f"{out / 'meta.json'}: world {name!r} came from {sources[name]}, this command's "
+                f"from {new[name]}; use another --out directory"
+            )
+
+
+def _differences(old: Any, new: Any, prefix: str = "") -> list[tuple[str, Any, Any]]:
+    """(dotted name, old value, new value) of each leaf where two JSON values differ."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        out = []
+        for k in sorted(old.keys() | new.keys()):
+            out += _differences(old.get(k), new.get(k), f"{prefix}{k}.")
+        return out
+    return [] if old == new else [(prefix.rstrip("."), old, new)]
 
 
 def drop_partial_row(path: Path) -> bool:

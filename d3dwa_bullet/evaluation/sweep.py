@@ -372,6 +372,8 @@ def run_sweep(
     out = Path(out)
     jobs = sweep_jobs(settings, policy)
     meta = {"kind": "sweep", "command": command} | settings.to_dict()
+    if policy:
+        meta["policy"] = str(Path(policy).resolve())
     evaluate(jobs, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta)
     keys = {j.key for j in jobs}
     rows = [r for r in read_sweep(out) if row_key(r) in keys]
