@@ -10,6 +10,9 @@ Each reading falls in exactly one class (REP-117 plus what real drivers emit):
 valid (finite, > 0, in [range_min, range_max]), ``nan``, ``pos_inf``, ``neg_inf``, ``zero``
 (0.0) and ``out_of_range`` (any other finite value outside [range_min, range_max]).
 
+Scan messages that cannot become a scan (zero beams, invalid geometry, corrupt) are left out
+and counted by reason in ``skipped``; the table says so above its rows.
+
 Range noise: for each beam valid in two consecutive scans, d = r[k+1] - r[k]; the noise
 estimate is 1.4826 * MAD(d) / sqrt(2), the standard deviation of one reading if the scene
 and the robot stand still (the MAD ignores the few large jumps that motion and edges give).
@@ -78,8 +81,8 @@ def scan_statistics(
 ) -> dict[str, Any]:
     """Per-sector reading statistics of one bag's scan topic (see the module docstring).
 
-    Returns {"bag", "topic", "scans", "mount", "outside_fov", "sectors": [K dicts],
-    "total": dict}; each sector dict has from_deg, to_deg, beams, valid, valid_ratio, the
+    Returns {"bag", "topic", "scans", "scan_messages", "skipped": {reason: messages}, "mount",
+    "outside_fov", "sectors": [K dicts], "total": dict}; each sector dict has from_deg, to_deg, beams, valid, valid_ratio, the
     ``READING_CLASSES`` counts and noise_std (m, None with fewer than two differences).
     """
     bag = read_bag(bag_path, topics=topics, mount=mount)
@@ -137,6 +140,7 @@ def scan_statistics(
         "topic": bag.topics["scan"],
         "scans": len(bag.scans),
         "scan_messages": bag.scan_messages,
+        "skipped": skipped_scans(bag.scan_rejects),
         "mount": {"x": bag.mount.x, "y": bag.mount.y, "yaw": bag.mount.yaw},
         "mount_source": bag.mount_source,
         "outside_fov": outside,
@@ -144,6 +148,19 @@ def scan_statistics(
         "total": row(k_all),
         "notes": list(bag.notes),
     }
+
+
+def skipped_scans(rejects: list[tuple[int, str]]) -> dict[str, int]:
+    """{reason: messages} of a bag's rejected scan messages, by reason."""
+    out: dict[str, int] = {}
+    for _, reason in rejects:
+        out[reason] = out.get(reason, 0) + 1
+    return dict(sorted(out.items()))
+
+
+def describe_skipped(stats: dict[str, Any]) -> str:
+    """'3 zero beams, 1 corrupt message' for a bag's stats ('' if nothing was skipped)."""
+    return ", ".join(f"{n} {reason}" for reason, n in stats.get("skipped", {}).items())
 
 
 def compare_scans(
@@ -195,6 +212,12 @@ def format_scan_comparison(result: dict[str, Any]) -> str:
     ]
     lines = [
         f"a: `{a['bag']}` ({a['topic']}, {a['scans']} scans); b: `{b['bag']}` ({b['topic']}, {b['scans']} scans)",
+        *(
+            f"{name}: {s['scan_messages'] - s['scans']} of {s['scan_messages']} scan messages "
+            f"left out ({describe_skipped(s)})"
+            for name, s in (("a", a), ("b", b))
+            if s.get("skipped")
+        ),
         "",
         "| " + " | ".join(header) + " |",
         "|" + "|".join("---" for _ in header) + "|",
