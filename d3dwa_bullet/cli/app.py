@@ -14,7 +14,10 @@ options are in ``options``. A command imports the simulator, torch or matplotlib
 it runs, so ``d3dwa --help`` and ``d3dwa worlds`` start quickly.
 
 Every failure the user can cause (unknown name, malformed file, bad checkpoint) ends with a
-one-line ``d3dwa: error: ...`` on stderr and exit status 2, not a traceback.
+one-line ``d3dwa: error: ...`` on stderr and exit status 2, not a traceback. Ctrl-C (or
+``kill``) ends with one ``d3dwa: interrupted`` line and status 130; the line says what was
+kept only where something was (a command's ``interrupted`` default, or the message of the
+KeyboardInterrupt a command re-raises, as ``record`` does with the bag's message count).
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ import d3dwa_bullet.cli.run as run_command
 import d3dwa_bullet.cli.sweep as sweep_command
 import d3dwa_bullet.cli.train as train_command
 import d3dwa_bullet.cli.worlds as worlds_command
+from d3dwa_bullet.cli.options import CommandParser
 from d3dwa_bullet.errors import D3DWAError
 
 COMMANDS = (
@@ -48,9 +52,7 @@ COMMANDS = (
 
 
 def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(
-        prog="d3dwa", description="D3DWA testbed: Kachaka + DWA + D3QN in PyBullet"
-    )
+    ap = CommandParser(prog="d3dwa", description="D3DWA testbed: Kachaka + DWA + D3QN in PyBullet")
     sub = ap.add_subparsers(dest="command", required=True)
     for command in COMMANDS:
         command.add_parser(sub)
@@ -67,14 +69,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except D3DWAError as err:
-        print(f"d3dwa: error: {err}", file=sys.stderr)
+        print(f"d3dwa: error: {one_line(str(err))}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("d3dwa: interrupted; finished episodes are kept in results.csv", file=sys.stderr)
+    except KeyboardInterrupt as err:
+        kept = str(err) or getattr(args, "interrupted", "")
+        print("d3dwa: interrupted" + (f"; {one_line(kept)}" if kept else ""), file=sys.stderr)
         return 130
     finally:
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGTERM, previous)
+
+
+def one_line(message: str) -> str:
+    """A message on one line: its non-blank lines joined by '; ' (most are one line already)."""
+    return "; ".join(line.strip() for line in message.splitlines() if line.strip())
 
 
 def _sigterm(signum: int, frame: object) -> None:

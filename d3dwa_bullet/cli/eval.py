@@ -1,22 +1,33 @@
-"""``d3dwa eval``: methods x worlds x seeds -> results.csv, table.md and trajectory figures."""
+"""``d3dwa eval``: methods x worlds x seeds -> results.csv, table.md and trajectory figures.
+
+``--out DIR`` is checked before any episode runs. A directory that already holds an
+evaluation is resumed or extended, never shrunk or mixed: the command must list every
+(world, method, seed, noise) already in its results.csv (it may add more), with the same
+episode settings (rates, world files, policy); otherwise it is refused with a message that
+names the mismatch, so table.md and meta.json always describe exactly the rows of results.csv
+(see :func:`d3dwa_bullet.evaluation.results.check_same_run`).
+"""
 
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from d3dwa_bullet.cli.options import (
+    ALLOW_EMPTY_HELP,
     add_backend_options,
     add_episode_options,
     default_methods,
     episode_config,
-    split_list,
+    list_arg,
+    load_cli_world,
+    policy_arg,
     workers_arg,
 )
+from d3dwa_bullet.cli.output import check_out_dir, json_text
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.io import atomic_write_text
-from d3dwa_bullet.world.registry import load_world, world_names
+from d3dwa_bullet.world.registry import world_names
 
 TABLE1_GROUPS = ("train", "unseen")
 """World groups of Table I (TS1..TS4, US1, H1..H3): the default worlds of ``d3dwa eval``."""
@@ -33,36 +44,42 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--worlds", help="comma list of names or files (default: TS1..TS4,US1,H1..H3)")
     p.add_argument("--seeds", type=int, default=1, help="number of seeds per (method, world)")
     p.add_argument("--seed", type=int, default=0, help="first seed")
-    p.add_argument("--out", default="results", help="results directory (resumes if it exists)")
+    p.add_argument("--allow-empty", action="store_true", help=ALLOW_EMPTY_HELP)
+    p.add_argument(
+        "--out",
+        default="results",
+        help="results directory; an existing one is resumed or extended: list every method, "
+        "world and seed already in it (more may be added), or choose another --out",
+    )
     add_backend_options(p)
     add_episode_options(p)
-    p.set_defaults(func=cmd_eval)
+    p.set_defaults(func=cmd_eval, interrupted="finished episodes are kept in results.csv")
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
     # start-up cost: the evaluation imports the simulator (pybullet) and the planner (numba)
     from d3dwa_bullet.evaluation.backends import check_address
-    from d3dwa_bullet.evaluation.jobs import Job, evaluate, world_figures
+    from d3dwa_bullet.evaluation.jobs import Job, evaluate, make_noise, world_figures
     from d3dwa_bullet.evaluation.report import eval_markdown
     from d3dwa_bullet.methods import check_method, make_controller
 
     check_address(args.ray)
     config = episode_config(args)
-    methods = [
-        check_method(m) for m in (split_list(args.methods) if args.methods else default_methods())
-    ]
-    world_args = split_list(args.worlds) if args.worlds else list(world_names(*TABLE1_GROUPS))
-    worlds = [load_world(w) for w in world_args]
+    methods = [check_method(m) for m in list_arg(args.methods, "--methods", default_methods)]
+    world_args = list_arg(args.worlds, "--worlds", lambda: world_names(*TABLE1_GROUPS))
+    policy = policy_arg(args.policy, methods)
+    worlds = [load_cli_world(w, args.allow_empty) for w in world_args]
     if args.seeds < 1:
         raise ConfigError(f"--seeds must be >= 1, got {args.seeds}")
     seeds = list(range(args.seed, args.seed + args.seeds))
-    for m in methods:  # fail fast on a missing policy, before any episode runs
-        make_controller(m, args.policy if len(methods) == 1 else None)
+    for m in methods:  # fail fast on a missing policy or profile, before any episode runs
+        make_controller(m, policy)
+    make_noise(args.noise, seeds[0])
     jobs = [
-        Job(w, m, s, args.noise, args.policy if len(methods) == 1 else None)
+        Job(w, m, s, args.noise, policy)
         for w in worlds for m in methods for s in seeds
     ]  # fmt: skip
-    out = Path(args.out)
+    out = check_out_dir(args.out, subdirs=("logs", "figures"))
     names = [w.name for w in worlds]
     settings = {
         "kind": "eval", "command": getattr(args, "command_line", ""), "methods": methods,
@@ -70,6 +87,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
                                            for a in world_args],
         "seeds": seeds, "noise": args.noise,
     }  # fmt: skip
+    if policy:
+        settings["policy"] = str(Path(policy).resolve())
     rows = evaluate(
         jobs, out, workers=workers_arg(args), config=config, progress=not args.json,
         ray_address=args.ray, settings=settings,
@@ -78,7 +97,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     atomic_write_text(out / "table.md", table)
     figures = world_figures(out, worlds, methods, seeds[0], args.noise)
     if args.json:
-        print(json.dumps(rows))
+        print(json_text(rows))
     else:
         print(table)
         print(f"results: {out / 'results.csv'}\ntable:   {out / 'table.md'}")

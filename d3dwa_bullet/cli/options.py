@@ -2,34 +2,67 @@
 
 Coordinates (``--start X,Y,YAW``, ``--goal X,Y``, ``--mount X,Y,YAW``), comma lists
 (``--methods dwa1,dwa3``), ``--workers``, the episode options (``--noise``, ``--policy``,
-rates) and the Ray address. Malformed values raise :class:`ConfigError` naming the option,
-which ``main`` reports as one line.
+rates), ``--time-limit``, worlds (``--world`` / ``--worlds`` with ``--allow-empty``) and the
+Ray address. Malformed values raise :class:`ConfigError` naming the option, which ``main``
+reports as one line.
+
+Every parser of the command line is a :class:`CommandParser`, which reads a value that
+starts with a minus sign and a digit as a value, not an option: ``--start -1,2,0`` and
+``--goal -2.5,1.3`` parse as ``--start=-1,2,0`` does (most Gazebo and map_server worlds put
+the origin mid-map, so negative coordinates are ordinary).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
+import re
+import warnings
+from collections.abc import Callable, Sequence
 
-from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.errors import ConfigError, WorldFormatError
 from d3dwa_bullet.params import PlannerParams, SimParams
-from d3dwa_bullet.world.model import World
-from d3dwa_bullet.world.registry import load_world
+from d3dwa_bullet.world.model import World, goal_in_obstacle, start_in_collision
+from d3dwa_bullet.world.registry import load_world, world_file_kind
 
 RAY_HELP = (
     "run episodes on Ray: 'local' (a private instance), 'auto' (the cluster of `ray start`), "
     "or HOST:PORT / ray://HOST:PORT"
 )
+ALLOW_EMPTY_HELP = (
+    "accept a Gazebo SDF or map_server world from which no obstacle could be built "
+    "(default: refused, naming what was skipped)"
+)
+_NUMBER = r"(?:(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?|inf(?:inity)?|nan)"
+NEGATIVE_VALUE = re.compile(rf"^-{_NUMBER}(?:,\s*[-+]?{_NUMBER})*$", re.IGNORECASE)
+"""A negative number or a comma list that starts with one: '-1', '-2.5,1.3', '-1,2,0'
+(also '-inf,0': a value, which the option's own check then refuses by name)."""
+
+
+class CommandParser(argparse.ArgumentParser):
+    """An ArgumentParser that takes '-1,2,0' as an option's value, not as an option.
+
+    argparse reads an argument starting with '-' as an option unless it looks like a
+    negative number, and a comma list is not one to it. Sub-parsers made with
+    ``add_subparsers().add_parser`` are of the same class.
+    """
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_VALUE  # what argparse consults (private)
 
 
 def parse_floats(text: str, n: int, what: str) -> tuple[float, ...]:
-    """'1.0,2.5' -> (1.0, 2.5), with a clear error naming the option."""
+    """'1.0,2.5' -> (1.0, 2.5), finite, with a clear error naming the option."""
     try:
         vals = tuple(float(v) for v in text.split(","))
     except ValueError as err:
         raise ConfigError(f"{what} must be {n} comma-separated numbers, got {text!r}") from err
     if len(vals) != n:
         raise ConfigError(f"{what} must be {n} comma-separated numbers, got {text!r}")
+    if not all(math.isfinite(v) for v in vals):
+        raise ConfigError(f"{what} must be {n} finite numbers, got {text!r}")
     return vals
 
 
@@ -38,21 +71,96 @@ def split_list(text: str) -> list[str]:
     return [t.strip() for t in text.split(",") if t.strip()]
 
 
+def list_arg(text: str | None, option: str, default: Callable[[], Sequence[str]]) -> list[str]:
+    """A comma-list option: default() when not given; given, at least one name (an empty
+    ``--methods ''`` is refused rather than read as "the default")."""
+    if text is None:
+        return list(default())
+    names = split_list(text)
+    if not names:
+        raise ConfigError(f"{option} is empty: name at least one, or leave the option out")
+    return names
+
+
+def policy_arg(policy: str | None, methods: Sequence[str]) -> str | None:
+    """--policy, which belongs to one learned method: refused beside several --methods
+    (it would silently apply to none of them)."""
+    if policy is not None and len(methods) != 1:
+        raise ConfigError(
+            f"--policy {policy} needs exactly one method, got --methods {','.join(methods)}"
+        )
+    return policy
+
+
+def time_limit_arg(value: float | None, option: str = "--time-limit") -> float | None:
+    """--time-limit checked: None (the world's own) or a finite number of seconds > 0."""
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise ConfigError(f"{option} must be a number of seconds > 0, got {value:g}")
+    return value
+
+
+def add_world_option(p: argparse.ArgumentParser, flag: str = "--world", **kwargs) -> None:
+    """``flag`` (a world name or file) and ``--allow-empty`` (see :func:`load_cli_world`)."""
+    p.add_argument(flag, **kwargs)
+    p.add_argument("--allow-empty", action="store_true", help=ALLOW_EMPTY_HELP)
+
+
+def load_cli_world(name_or_path: str, allow_empty: bool = False, warn: bool = True) -> World:
+    """The world of a --world value; a Gazebo SDF or map_server file from which no obstacle
+    could be built is a WorldFormatError naming what was skipped, unless allow_empty.
+
+    (A native YAML world with no obstacles says so itself and is accepted.) The loader's
+    warnings (SDF items skipped) are shown as usual when the world is accepted, unless
+    warn=False (a check ahead of a command that loads the world again and warns then).
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        world = load_world(name_or_path)
+    if not world.obstacles and not allow_empty:
+        kind = world_file_kind(world.source) if os.path.isfile(world.source) else "native"
+        if kind != "native":
+            skipped = "; ".join(str(w.message).split(": ", 1)[-1] for w in caught)
+            raise WorldFormatError(
+                f"{world.source}: no obstacle could be built from this "
+                f"{'Gazebo SDF' if kind == 'sdf' else 'map_server'} world"
+                f"{f' ({skipped})' if skipped else ''}; pass --allow-empty to use it empty"
+            )
+    for w in caught if warn else ():
+        warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    return world
+
+
 def add_task_options(p: argparse.ArgumentParser) -> None:
     """--start, --goal and --time-limit: the task on a world (see :func:`load_task_world`)."""
-    p.add_argument("--start", help="X,Y,YAW start pose (m, m, rad)")
+    p.add_argument("--start", help="X,Y,YAW start pose (m, m, rad); negative values as -1,2,0")
     p.add_argument("--goal", help="X,Y goal (m)")
     p.add_argument("--time-limit", type=float, help="episode time limit, s (default 60)")
 
 
 def load_task_world(args: argparse.Namespace) -> World:
-    """The world of --world with --start/--goal/--time-limit applied."""
-    world = load_world(args.world)
+    """The world of --world with --start/--goal/--time-limit applied; a value that is wrong
+    for this world (a start in collision, a goal inside an obstacle) names its option."""
+    world = load_cli_world(args.world, getattr(args, "allow_empty", False))
     start = parse_floats(args.start, 3, "--start X,Y,YAW") if args.start else None
     goal = parse_floats(args.goal, 2, "--goal X,Y") if args.goal else None
-    if start or goal or args.time_limit:
-        world = world.with_task(start=start, goal=goal, time_limit=args.time_limit)
-    return world
+    time_limit = time_limit_arg(args.time_limit)
+    if start is not None and start_in_collision(world, start):
+        raise ConfigError(
+            f"--start {args.start} puts the robot body in collision with an obstacle of "
+            f"{world.source}"
+        )
+    if goal is not None and goal_in_obstacle(world, goal):
+        raise ConfigError(f"--goal {args.goal} lies inside an obstacle of {world.source}")
+    if start is None and goal is None and time_limit is None:
+        return world
+    try:
+        return world.with_task(start=start, goal=goal, time_limit=time_limit)
+    except WorldFormatError as err:
+        if os.path.isfile(world.source) and world_file_kind(world.source) != "native":
+            raise WorldFormatError(
+                f"{err} (a placeholder: this file has no task of its own; give --start and --goal)"
+            ) from err
+        raise
 
 
 def add_episode_options(p: argparse.ArgumentParser) -> None:

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
+import os
 import sys
 
+from d3dwa_bullet.cli.output import json_text
+from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.resources import policies_dir
 
 
@@ -21,9 +23,11 @@ def cmd_report(args: argparse.Namespace) -> int:
     # start-up cost: the report imports the evaluation (pybullet, matplotlib)
     from d3dwa_bullet.evaluation.report import write_report
 
+    if os.path.isdir(args.dir) and not os.access(args.dir, os.W_OK | os.X_OK):
+        raise ConfigError(f"{args.dir}: cannot write report.md in it (permission denied)")
     report = write_report(args.dir, args.policies or policies_dir())
     if args.json:
-        print(json.dumps({"report": str(report.path), "kind": report.kind,
+        print(json_text({"report": str(report.path), "kind": report.kind,
                           "complete": report.complete, "done": report.done,
                           "expected": report.expected}))  # fmt: skip
     else:

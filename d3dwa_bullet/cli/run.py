@@ -1,21 +1,29 @@
-"""``d3dwa run``: one episode of one method on one world (headless; ``--gui`` to watch)."""
+"""``d3dwa run``: one episode of one method on one world (headless; ``--gui`` to watch).
+
+``--plot PNG`` is checked before the episode starts (a file name, in a directory that can be
+written, of a type matplotlib writes), and the episode's summary (text or ``--json``) is
+printed before the figure is drawn, so a figure that still cannot be written never costs
+the result.
+"""
 
 from __future__ import annotations
 
 import argparse
-import json
 
 from d3dwa_bullet.cli.options import (
     add_episode_options,
     add_task_options,
+    add_world_option,
     episode_config,
     load_task_world,
 )
+from d3dwa_bullet.cli.output import check_out_file, json_text
+from d3dwa_bullet.errors import ConfigError
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run one episode")
-    p.add_argument("--world", required=True, help="world name (see `d3dwa worlds`) or a world file")
+    add_world_option(p, required=True, help="world name (see `d3dwa worlds`) or a world file")
     p.add_argument(
         "--method", required=True, help="dwa1, dwa2, dwa3, dqdwa, d3dwa-weights, d3dwa, d3dwa-dr"
     )
@@ -27,7 +35,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--colour-by", choices=("time", "tau"), default="time", help="trajectory colour in --plot"
     )
     add_episode_options(p)
-    p.set_defaults(func=cmd_run)
+    p.set_defaults(func=cmd_run, interrupted="the episode was not finished; nothing written")
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -39,10 +47,22 @@ def cmd_run(args: argparse.Namespace) -> int:
     config = episode_config(args)
     world = load_task_world(args)
     controller = make_controller(args.method, args.policy)
+    if args.plot:
+        check_out_file(args.plot, "--plot", figure_suffixes())
     result = run_episode(
         world, controller, seed=args.seed, noise=make_noise(args.noise, args.seed),
         noise_name=args.noise, config=config, gui=args.gui,
     )  # fmt: skip
+    summary = result.summary()
+    if args.json:
+        print(json_text(summary), flush=True)
+    else:
+        print(
+            f"{summary['world']} {summary['method']} seed {summary['seed']}: {summary['outcome']} "
+            f"in {summary['time_s']:.1f} s, TL {summary['tl_m']:.2f} m, PD {summary['pd_rad']:.2f} rad, "
+            f"min clearance {summary['min_clearance_m']:.3f} m ({summary['steps']} steps)",
+            flush=True,
+        )
     if args.plot:
         # start-up cost: matplotlib (~0.3 s) only with --plot
         from d3dwa_bullet.evaluation.plotting import trajectory_figure
@@ -50,31 +70,25 @@ def cmd_run(args: argparse.Namespace) -> int:
         log = result.log
         t = list(log["t"]) + [result.time_s]
         tau = list(log["tau"]) + list(log["tau"][-1:])
-        trajectory_figure(
-            world,
-            [
-                {
-                    "label": LABELS.get(args.method, args.method),
-                    "method": args.method,
-                    "outcome": result.outcome,
-                    "t": t,
-                    "x": log["true_x"],
-                    "y": log["true_y"],
-                    "tau": tau,
-                }
-            ],  # fmt: skip
-            args.plot,
-            colour_by=args.colour_by,
-        )
-    summary = result.summary()
-    if args.json:
-        print(json.dumps(summary))
-    else:
-        print(
-            f"{summary['world']} {summary['method']} seed {summary['seed']}: {summary['outcome']} "
-            f"in {summary['time_s']:.1f} s, TL {summary['tl_m']:.2f} m, PD {summary['pd_rad']:.2f} rad, "
-            f"min clearance {summary['min_clearance_m']:.3f} m ({summary['steps']} steps)"
-        )
-        if args.plot:
+        run = {
+            "label": LABELS.get(args.method, args.method), "method": args.method,
+            "outcome": result.outcome, "t": t, "x": log["true_x"], "y": log["true_y"], "tau": tau,
+        }  # fmt: skip
+        try:
+            trajectory_figure(world, [run], args.plot, colour_by=args.colour_by)
+        except OSError as err:  # checked before the episode; the location changed since
+            raise ConfigError(
+                f"--plot {args.plot}: cannot write the figure ({err.strerror}); "
+                "the episode's summary is printed above"
+            ) from err
+        if not args.json:
             print(f"figure: {args.plot}")
     return 0
+
+
+def figure_suffixes() -> list[str]:
+    """File types matplotlib can write (png, pdf, svg, ...), for --plot."""
+    # start-up cost: matplotlib (~0.3 s) only with --plot
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return list(FigureCanvasBase.get_supported_filetypes())

@@ -1,19 +1,27 @@
-"""``d3dwa sweep``: methods x noise levels on R1-R3 and unseen generated layouts -> plots."""
+"""``d3dwa sweep``: methods x noise levels on R1-R3 and unseen generated layouts -> plots.
+
+``--out DIR`` is checked before any episode runs; an existing sweep directory is resumed or
+extended, never shrunk or mixed, as with ``d3dwa eval`` (see
+:func:`d3dwa_bullet.evaluation.results.check_same_run`).
+"""
 
 from __future__ import annotations
 
 import argparse
-import json
-from pathlib import Path
 
 from d3dwa_bullet.cli.options import (
+    ALLOW_EMPTY_HELP,
     add_backend_options,
     default_methods,
     episode_config,
+    list_arg,
+    load_cli_world,
+    policy_arg,
     split_list,
+    time_limit_arg,
     workers_arg,
 )
-from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.cli.output import check_out_dir, json_text
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -21,7 +29,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "sweep", help="success and time vs noise level on R1-R3 and unseen generated layouts"
     )
     p.add_argument("--methods", help="comma list (default: fixed baselines + shipped policies)")
-    p.add_argument("--out", required=True, help="results directory (resumes if it exists)")
+    p.add_argument(
+        "--out",
+        required=True,
+        help="results directory; an existing sweep is resumed or extended (same settings)",
+    )
     p.add_argument("--levels", type=int, default=4, help="non-zero levels per noise axis")
     p.add_argument(
         "--layouts", type=int, default=2, help="unseen generated layouts per R1/R2/R3 style"
@@ -29,6 +41,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seeds", type=int, default=2, help="episode seeds per condition")
     p.add_argument("--seed", type=int, default=0, help="first episode seed")
     p.add_argument("--worlds", help="shipped worlds, comma list (default: R1,R2,R3; '' for none)")
+    p.add_argument("--allow-empty", action="store_true", help=ALLOW_EMPTY_HELP)
     p.add_argument("--styles", help="generator styles (default: R1-style,R2-style,R3-style)")
     p.add_argument(
         "--axes", help="noise axes (default: lidar_dropout,lidar_range,slip,odometry; '' for none)"
@@ -40,7 +53,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print summary statistics as JSON")
     p.add_argument("--physics-hz", type=int, default=240, help="physics rate")
     p.add_argument("--control-hz", type=int, default=10, help="control (planning) rate")
-    p.set_defaults(func=cmd_sweep)
+    p.set_defaults(func=cmd_sweep, interrupted="finished episodes are kept in results.csv")
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -58,25 +71,26 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     check_address(args.ray)
     settings = SweepSettings(
-        methods=tuple(split_list(args.methods) if args.methods else default_methods()),
+        methods=tuple(list_arg(args.methods, "--methods", default_methods)),
         worlds=tuple(split_list(args.worlds) if args.worlds is not None else SHIPPED_WORLDS),
         styles=tuple(split_list(args.styles) if args.styles is not None else STYLES),
         layouts=args.layouts, seeds=args.seeds, first_seed=args.seed, levels=args.levels,
         axes=tuple(split_list(args.axes) if args.axes is not None else AXES),
         profiles=tuple(split_list(args.profiles) if args.profiles is not None else PROFILES),
-        time_limit=args.time_limit,
+        time_limit=time_limit_arg(args.time_limit),
     )  # fmt: skip
-    if args.time_limit is not None and args.time_limit <= 0:
-        raise ConfigError(f"--time-limit must be > 0 s, got {args.time_limit}")
-    out = Path(args.out)
+    policy = policy_arg(args.policy, settings.methods)
+    config = episode_config(args)
+    for w in settings.worlds:  # a bad or empty world file is refused before any episode
+        load_cli_world(w, args.allow_empty, warn=False)
+    out = check_out_dir(args.out, subdirs=("logs", "figures"))
     rows, complete = run_sweep(
         settings, out, workers=workers_arg(args), ray_address=args.ray,
-        config=episode_config(args), progress=not args.json,
-        policy=args.policy if len(settings.methods) == 1 else None,
+        config=config, progress=not args.json, policy=policy,
         command=getattr(args, "command_line", ""),
     )  # fmt: skip
     if args.json:
-        print(json.dumps({"complete": complete, "episodes": len(rows),
+        print(json_text({"complete": complete, "episodes": len(rows),
                           "summary": summary_records(rows, settings)}))  # fmt: skip
     else:
         print(f"{len(rows)} episodes in {out / 'results.csv'}")

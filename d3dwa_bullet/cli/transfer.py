@@ -12,14 +12,19 @@ replayed before an error is on disk by then (``replay.csv``, ``summary.json``).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, TextIO
 
-from d3dwa_bullet.cli.options import parse_floats
+from d3dwa_bullet.cli.options import (
+    ALLOW_EMPTY_HELP,
+    load_cli_world,
+    parse_floats,
+    time_limit_arg,
+)
+from d3dwa_bullet.cli.output import check_out_dir, json_text
 from d3dwa_bullet.errors import BagFormatError, ConfigError, D3DWAError
 from d3dwa_bullet.sim.scan import Pose2D
 from transfer.bag_writer import (
@@ -30,7 +35,7 @@ from transfer.bag_writer import (
     check_bag_version,
     resolve_storage,
 )
-from transfer.compare import compare_scans, format_scan_comparison
+from transfer.compare import compare_scans, describe_skipped, format_scan_comparison
 from transfer.replay import replay_bag
 from transfer.replay_output import ReplayResult
 from transfer.replay_step import ESTIMATORS, StepFn, observe_only
@@ -128,6 +133,7 @@ def run_replay(
         step_fn = make_step_fn(args.method, args.policy, estimator=estimator)
     goal = parse_floats(args.goal, 2, "--goal") if args.goal else None
     mount = Pose2D(*parse_floats(args.mount, 3, "--mount")) if args.mount else None
+    check_out_dir(args.out)
     try:
         result = replay_bag(
             args.bag,
@@ -141,13 +147,17 @@ def run_replay(
         )
     except D3DWAError:
         raise
+    except KeyboardInterrupt as err:
+        raise KeyboardInterrupt(
+            f"the scans replayed so far are in {Path(args.out) / 'replay.csv'}"
+        ) from err
     except Exception as err:  # noqa: BLE001 - reported as one line; rows so far are on disk
         raise D3DWAError(
             f"{args.bag}: replay with {args.method!r} stopped: {type(err).__name__}: {err}; "
             f"scans replayed before the failure are in {Path(args.out) / 'replay.csv'}"
         ) from err
     if args.json:
-        out.write(json.dumps(result.summary(), indent=2) + "\n")
+        out.write(json_text(result.summary(), indent=2) + "\n")
     else:
         out.write(describe_replay(result) + "\n")
     if not result.replayed:
@@ -170,6 +180,7 @@ def nothing_replayed(result: ReplayResult) -> str:
 
 def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--world", required=True, help="world name or file")
+    parser.add_argument("--allow-empty", action="store_true", help=ALLOW_EMPTY_HELP)
     parser.add_argument("--method", required=True, help="method name")
     parser.add_argument("--policy", type=Path, help="checkpoint for learned methods")
     parser.add_argument(
@@ -200,12 +211,21 @@ def run_record(
     the simulator and calls ``recorder.write_step(...)`` once per control step.
 
     A failure before the first message (unknown world or method, missing policy) leaves no
-    bag behind; a failure halfway keeps the steps recorded so far in a readable bag.
+    bag behind; a failure halfway keeps the steps recorded so far in a readable bag, and
+    so does Ctrl-C (the KeyboardInterrupt is re-raised with what the bag holds). An existing
+    ``--out`` is refused unless ``--overwrite``; the world is checked (``--allow-empty``)
+    and ``--time-limit`` too before the bag is created.
     """
     out = sys.stdout if out is None else out
     extra = {}
-    if getattr(args, "time_limit", None) is not None:
+    if time_limit_arg(getattr(args, "time_limit", None)) is not None:
         extra["time_limit"] = args.time_limit
+    load_cli_world(args.world, getattr(args, "allow_empty", False), warn=False)
+    target = Path(args.out)
+    if target.exists() and not args.overwrite:
+        if looks_like_bag(target):
+            raise BagFormatError(f"{target}: bag exists; pass --overwrite to replace it")
+        raise BagFormatError(f"{target}: exists and is not a bag; choose another --out")
     storage = resolve_storage(args.out, args.storage, option="--storage")
     version = check_bag_version(
         getattr(args, "bag_version", None), storage, args.out, option="--bag-version"
@@ -219,13 +239,15 @@ def run_record(
     except BaseException as err:
         if not recorder.counts:
             recorder.discard()
-        if isinstance(err, D3DWAError) or not isinstance(err, Exception):
-            raise
         kept = (
             f"the bag keeps the {sum(recorder.counts.values())} messages written"
             if recorder.counts
             else "no bag written"
         )
+        if isinstance(err, KeyboardInterrupt):
+            raise KeyboardInterrupt(f"{args.out}: recording stopped; {kept}") from err
+        if isinstance(err, D3DWAError) or not isinstance(err, Exception):
+            raise
         raise D3DWAError(
             f"{args.out}: recording stopped: {type(err).__name__}: {err}; {kept}"
         ) from err
@@ -236,6 +258,13 @@ def run_record(
     return 0
 
 
+def looks_like_bag(path: Path) -> bool:
+    """A ROS 2 bag directory (metadata.yaml) or a bag file (.bag, .db3, .mcap)."""
+    if path.is_dir():
+        return (path / "metadata.yaml").exists()
+    return path.suffix in (".bag", ".db3", ".mcap")
+
+
 def add_compare_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("bag_a", type=Path, help="first bag (e.g. simulated)")
     parser.add_argument("bag_b", type=Path, help="second bag (e.g. real)")
@@ -243,11 +272,25 @@ def add_compare_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_compare(args: argparse.Namespace, out: TextIO | None = None) -> int:
-    """``d3dwa compare-scans A B``: Markdown table, or JSON with --json."""
+    """``d3dwa compare-scans A B``: Markdown table, or JSON with --json.
+
+    Scan messages that are not scans (zero beams, bad geometry, corrupt) are left out and
+    counted (a line above the table, ``skipped`` in the JSON); a bag with no scan left is a
+    BagFormatError naming it and why, as there is nothing to compare.
+    """
     out = sys.stdout if out is None else out
     result = compare_scans(args.bag_a, args.bag_b, topics=parse_topic_overrides(args.topic))
+    empty = [s for s in (result["a"], result["b"]) if not s["scans"]]
+    if empty:
+        raise BagFormatError(
+            "; ".join(
+                f"{s['bag']}: no scan on {s['topic']!r} to compare ({s['scan_messages']} "
+                f"messages{': ' + describe_skipped(s) if s.get('skipped') else ''})"
+                for s in empty
+            )
+        )
     if args.json:
-        out.write(json.dumps(result, indent=2) + "\n")
+        out.write(json_text(result, indent=2) + "\n")
     else:
         out.write(format_scan_comparison(result))
     return 0

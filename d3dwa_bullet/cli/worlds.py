@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import json
 
+from d3dwa_bullet.cli.output import json_text
 from d3dwa_bullet.world.registry import list_worlds
 
 
@@ -17,7 +17,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def cmd_worlds(args: argparse.Namespace) -> int:
     worlds = list_worlds()
     if args.json:
-        print(json.dumps([{"name": w.name, "group": w.group, "description": w.description,
+        print(json_text([{"name": w.name, "group": w.group, "description": w.description,
                            "goal": list(w.goal), "obstacles": len(w.obstacles)} for w in worlds]))  # fmt: skip
         return 0
     width = max(len(w.name) for w in worlds)

@@ -127,7 +127,7 @@ def test_eval_writes_results_table_and_figures(tiny_world, tmp_path, capsys):
     [
         (["run", "--world", "NOPE", "--method", "dwa1"], "unknown world 'NOPE'"),
         (["run", "--world", "TS1", "--method", "dwa9"], "unknown method 'dwa9'"),
-        (["run", "--world", "TS1", "--method", "dwa1", "--goal", "1.5,0.3"], "field 'goal'"),
+        (["run", "--world", "TS1", "--method", "dwa1", "--goal", "1.5,0.3"], "--goal 1.5,0.3"),
         (["run", "--world", "TS1", "--method", "dwa1", "--start", "1,2"], "--start"),
         (["run", "--world", "TS1", "--method", "dwa1", "--noise", "bogus"], "bogus"),
         (["eval", "--methods", "dwa1", "--worlds", "TS1", "--seeds", "0"], "--seeds"),

@@ -1,0 +1,96 @@
+"""What commands write: destinations checked before any work starts, and strict JSON.
+
+An episode, an evaluation or a recording may take minutes; a destination it cannot write
+must be refused before the first step, not after the last. :func:`check_out_dir` and
+:func:`check_out_file` raise :class:`ConfigError` naming the option and the path: a
+directory that is a file, a path under a file, a location without write permission (or one
+that cannot be created). They create the missing directories the command would create anyway.
+
+``--json`` output is strict JSON (RFC 8259 has no NaN or Infinity): :func:`json_text` writes
+non-finite floats, such as the minimum clearance of a world without obstacles, as ``null``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+from d3dwa_bullet.errors import ConfigError
+
+
+def _existing_ancestor(path: Path) -> Path:
+    """The nearest of path, its parents, ... that exists (the current directory at worst)."""
+    for candidate in (path, *path.parents):
+        if os.path.lexists(candidate):
+            return candidate
+    return Path.cwd()
+
+
+def _make_dir(directory: Path, option: str, shown: Path) -> None:
+    """Create directory (and its parents), or ConfigError naming option and shown."""
+    base = _existing_ancestor(directory)
+    if not base.is_dir():
+        raise ConfigError(f"{option} {shown}: {base} is a file, not a directory")
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise ConfigError(f"{option} {shown}: cannot create {directory}: {err.strerror}") from err
+    if not os.access(directory, os.W_OK | os.X_OK):
+        raise ConfigError(f"{option} {shown}: cannot write in {directory} (permission denied)")
+
+
+def check_out_dir(
+    path: str | os.PathLike[str], option: str = "--out", subdirs: Iterable[str] = ()
+) -> Path:
+    """The output directory of a command, created and checked writable (with subdirs, the
+    entries the command will make directories, such as logs/ and figures/)."""
+    out = Path(path)
+    if os.path.lexists(out) and not out.is_dir():
+        raise ConfigError(f"{option} {out}: exists and is not a directory")
+    _make_dir(out, option, out)
+    for name in subdirs:
+        sub = out / name
+        if os.path.lexists(sub) and not sub.is_dir():
+            raise ConfigError(f"{option} {out}: {sub} exists and is not a directory")
+    return out
+
+
+def check_out_file(
+    path: str | os.PathLike[str], option: str, suffixes: Iterable[str] | None = None
+) -> Path:
+    """An output file of a command: not a directory, its directory created and writable,
+    and (with suffixes, lower case without the dot) a suffix the writer understands."""
+    target = Path(path)
+    if target.is_dir():
+        raise ConfigError(f"{option} {target}: is a directory; give a file name")
+    if suffixes is not None:
+        allowed = sorted(set(suffixes))
+        suffix = target.suffix.lower().lstrip(".")
+        if suffix and suffix not in allowed:
+            raise ConfigError(
+                f"{option} {target}: unknown file type {target.suffix!r}; use one of "
+                + ", ".join(f".{s}" for s in allowed)
+            )
+    _make_dir(target.parent if str(target.parent) else Path("."), option, target)
+    return target
+
+
+def strict(value: Any) -> Any:
+    """value with every non-finite float (NaN, +-inf) replaced by None, in nested
+    dicts, lists and tuples (tuples become lists, as JSON has only arrays)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: strict(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [strict(v) for v in value]
+    return value
+
+
+def json_text(value: Any, **kwargs: Any) -> str:
+    """``json.dumps`` that never writes NaN or Infinity (see :func:`strict`)."""
+    return json.dumps(strict(value), allow_nan=False, **kwargs)
