@@ -26,6 +26,7 @@ from d3dwa_bullet.errors import TrainingError
 from d3dwa_bullet.learning.training.config import TrainConfig
 from d3dwa_bullet.learning.training.curriculum import Curriculum
 from d3dwa_bullet.learning.training.logs import SUCCESS_WINDOW
+from d3dwa_bullet.learning.training.run_dir import POLICY_DIR, checkpoint_dir
 from d3dwa_bullet.learning.training.schedule import Schedule
 
 
@@ -166,3 +167,37 @@ def check_rebuilt(obs: np.ndarray, episodes: list[EpisodeProgress], where: Path)
                 f"{where}: replaying env {i}'s episode in progress ({len(ep.actions)} steps) "
                 "did not reproduce its saved observation"
             )
+
+
+def run_summary(
+    progress: TrainingProgress, config: TrainConfig, out: Path, agent: Any, status: str
+) -> dict[str, Any]:
+    """The run's ``summary.json``: status, counters, throughput, timing, evaluations."""
+    p, t = progress, progress.timing
+    latest = checkpoint_dir(out, "latest")
+    return {
+        "status": status,
+        "method": config.method,
+        "run_dir": str(out),
+        "env_steps": p.env_steps,
+        "train_steps": agent.train_steps,
+        "episodes": p.episodes,
+        "wall_time_s": round(p.wall_time, 2),
+        "cpu_time_s": round(p.cpu_time, 2),
+        "steps_per_s": round(p.env_steps / p.wall_time, 2) if p.wall_time else None,
+        "n_envs": config.n_envs,
+        "env_steps_per_s": _env_rate(p.env_steps, config.n_envs, t),
+        "updates_per_s": round(agent.train_steps / t["learn"], 2) if t["learn"] else None,
+        "timing_s": {k: round(v, 2) for k, v in t.items()},
+        "epsilon": agent.epsilon(),
+        "best_eval": p.best,
+        "final_eval": p.evals[-1] if p.evals else None,
+        "policy": str(out / POLICY_DIR) if status == "done" else None,
+        "resume": str(latest),
+    }
+
+
+def _env_rate(env_steps: int, n_envs: int, timing: Mapping[str, float]) -> float | None:
+    """Env steps per second the n envs sustain: n / (mean seconds of one env's step)."""
+    seconds = timing.get("env/step") or timing.get("env")
+    return round(n_envs * env_steps / seconds, 2) if seconds else None

@@ -21,7 +21,6 @@ nothing (the last good ``latest`` stays); non-finite weights are never saved; Ct
 from __future__ import annotations
 
 import os
-import signal
 import sys
 import time
 from collections.abc import Mapping
@@ -40,39 +39,16 @@ from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
 from d3dwa_bullet.learning.agents.replay import Transition
 from d3dwa_bullet.learning.training.collector import Collector, env_seeds
 from d3dwa_bullet.learning.training.config import TrainConfig, make_agent, make_env
+from d3dwa_bullet.learning.training.interrupt import StopOnInterrupt
 from d3dwa_bullet.learning.training.logs import MetricsLog
 from d3dwa_bullet.learning.training.state import (
     EpisodeProgress,
     TrainingProgress,
     check_rebuilt,
     rebuild_plans,
+    run_summary,
     truncate_logs,
 )
-
-
-class _Stop:
-    """SIGINT -> a flag checked at step boundaries; a second SIGINT raises at once."""
-
-    def __init__(self) -> None:
-        self.requested = False
-        self._previous: Any = None
-
-    def __enter__(self) -> _Stop:
-        try:
-            self._previous = signal.signal(signal.SIGINT, self._handle)
-        except ValueError:  # not the main thread: no handler, Ctrl-C behaves as usual
-            self._previous = None
-        return self
-
-    def _handle(self, signum: int, frame: Any) -> None:
-        if self.requested:
-            raise KeyboardInterrupt
-        self.requested = True
-
-    def __exit__(self, *exc: object) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
-
 
 Agent = D3QNAgent | DQDWAAgent
 
@@ -173,7 +149,7 @@ class Trainer:
                    disable=not progress, unit="step", desc=c.method,
                    mininterval=1.0 if os.isatty(2) else 30.0)  # fmt: skip
         try:
-            with _Stop() as stop:
+            with StopOnInterrupt() as stop:
                 if p.env_steps < c.total_steps:
                     p.obs = self._start_envs(collector, tasks)
                 while p.env_steps < c.total_steps:
@@ -375,34 +351,7 @@ class Trainer:
             self.save_policy("best", agent, {"selected": "best", "eval": result})
 
     def summary(self, agent: Any, status: str) -> dict[str, Any]:
-        p = self.progress
-        t = p.timing
-        return {
-            "status": status,
-            "method": self.config.method,
-            "run_dir": str(self.out),
-            "env_steps": p.env_steps,
-            "train_steps": agent.train_steps,
-            "episodes": p.episodes,
-            "wall_time_s": round(p.wall_time, 2),
-            "cpu_time_s": round(p.cpu_time, 2),
-            "steps_per_s": round(p.env_steps / p.wall_time, 2) if p.wall_time else None,
-            "n_envs": self.config.n_envs,
-            "env_steps_per_s": _env_rate(p.env_steps, self.config.n_envs, t),
-            "updates_per_s": round(agent.train_steps / t["learn"], 2) if t["learn"] else None,
-            "timing_s": {k: round(v, 2) for k, v in t.items()},
-            "epsilon": agent.epsilon(),
-            "best_eval": p.best,
-            "final_eval": p.evals[-1] if p.evals else None,
-            "policy": str(self.out / run_dir.POLICY_DIR) if status == "done" else None,
-            "resume": str(self.latest),
-        }
-
-
-def _env_rate(env_steps: int, n_envs: int, timing: Mapping[str, float]) -> float | None:
-    """Env steps per second the n envs sustain: n / (mean seconds of one env's step)."""
-    seconds = timing.get("env/step") or timing.get("env")
-    return round(n_envs * env_steps / seconds, 2) if seconds else None
+        return run_summary(self.progress, self.config, self.out, agent, status)
 
 
 def train(
