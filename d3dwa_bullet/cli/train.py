@@ -59,6 +59,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         train,
     )
 
+    if args.total_steps is not None and args.total_steps < 1:
+        raise ConfigError(f"--total-steps must be >= 1, got {args.total_steps}")
     if args.seeds is not None:
         return _train_seeds(args)
     if args.n_envs is not None and args.n_envs < 0:

@@ -121,3 +121,27 @@ def test_a_folder_of_seeds_is_not_taken_for_one_policy(tmp_path: Path) -> None:
     with pytest.raises(CheckpointError, match="seed-0"):
         make_controller("d3dwa", tmp_path / "d3dwa")
     assert make_controller("d3dwa", tmp_path / "d3dwa" / "seed-0").policy is not None
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("method: d3dwa\nagent:\n  lr: fast\n", "field 'agent.lr' must be a number, got 'fast'"),
+        ("- 1\n- 2\n", "expected a mapping of TrainConfig fields"),
+        ("total_steps: many\n", "field 'total_steps' must be a whole number, got 'many'"),
+        ("method: d3dwa\nagent: 3\n", "field 'agent' must be a mapping"),
+    ],
+)
+def test_bad_config_values_name_the_field(tmp_path: Path, capsys, text: str, message: str) -> None:
+    config = tmp_path / "c.yaml"
+    config.write_text(text)
+    assert main(["train", "--config", str(config), "--out", str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0] and str(config) in err[0]
+    assert not (tmp_path / "run").exists()
+
+
+def test_total_steps_errors_name_the_option(tmp_path: Path, capsys) -> None:
+    config = str(configs_dir() / "d3dwa.yaml")
+    assert main(["train", "--config", config, "--total-steps", "-5", "--out", str(tmp_path)]) == 2
+    assert capsys.readouterr().err.strip() == "d3dwa: error: --total-steps must be >= 1, got -5"

@@ -217,15 +217,40 @@ class TrainConfig:
         kwargs = dict(data)
         method = kwargs.get("method", cls.method)
         agent = kwargs.get("agent")
+        check_scalar_types(cls, kwargs, source)
+        agent_cls = DQDWAConfig if method == "dqdwa" else D3QNConfig
+        if isinstance(agent, Mapping):
+            check_scalar_types(agent_cls, agent, source, "agent.")
         try:
             if isinstance(agent, Mapping):
-                agent_cls = DQDWAConfig if method == "dqdwa" else D3QNConfig
                 kwargs["agent"] = agent_cls.from_dict(agent)
+            elif agent is not None and not isinstance(agent, D3QNConfig | DQDWAConfig):
+                raise ConfigError(f"field 'agent' must be a mapping of fields, got {agent!r}")
             return cls(**kwargs)
         except ConfigError as err:
             raise ConfigError(f"{source}: {err}") from err
         except TypeError as err:
             raise ConfigError(f"{source}: bad field value ({err})") from err
+
+
+def check_scalar_types(cls: type, data: Mapping[str, Any], source: str, prefix: str = "") -> None:
+    """ConfigError naming the field and value when a number, a whole number or a word is
+    given as something else (``lr: fast``), before any comparison can fail obscurely."""
+    for f in fields(cls):
+        if f.name not in data or data[f.name] is None:
+            continue
+        value, default = data[f.name], f.default
+        if isinstance(default, bool) or not isinstance(default, int | float | str):
+            continue
+        if isinstance(default, str):
+            ok, kind = isinstance(value, str), "a word"
+        elif isinstance(default, int) and f.type in ("int", int):
+            ok, kind = isinstance(value, int) and not isinstance(value, bool), "a whole number"
+        else:
+            ok = isinstance(value, int | float) and not isinstance(value, bool)
+            kind = "a number"
+        if not ok:
+            raise ConfigError(f"{source}: field '{prefix}{f.name}' must be {kind}, got {value!r}")
 
 
 def load_train_config(path: str | os.PathLike[str], **overrides: Any) -> TrainConfig:
@@ -235,6 +260,11 @@ def load_train_config(path: str | os.PathLike[str], **overrides: Any) -> TrainCo
         data = yaml.safe_load(p.read_text())
     except (OSError, yaml.YAMLError) as err:
         raise ConfigError(f"{p}: cannot read the training config: {err}") from err
+    if data is not None and not isinstance(data, Mapping):
+        raise ConfigError(
+            f"{p}: expected a mapping of TrainConfig fields (method: ..., total_steps: ...), "
+            f"got a YAML {type(data).__name__}"
+        )
     data = dict(data or {})
     for key, value in overrides.items():
         if value is not None:
