@@ -171,3 +171,20 @@ def test_a_killed_worker_is_a_clear_error_and_the_run_resumes(tiny: str, tmp_pat
 
 def _env_steps(meta: Path) -> int:
     return int(json.loads(meta.read_text())["env_steps"])
+
+
+def test_the_progress_bar_says_when_it_is_evaluating(
+    tiny: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import io
+
+    from tqdm import tqdm
+
+    import d3dwa_bullet.learning.training.trainer as trainer_module
+
+    stream = io.StringIO()
+    monkeypatch.setattr(
+        trainer_module, "tqdm", lambda *a, **k: tqdm(*a, **{**k, "file": stream, "mininterval": 0})
+    )
+    train(_config(tiny, total_steps=60, eval_every=30), tmp_path / "run", progress=True)
+    assert "evaluating: 1 greedy episodes" in stream.getvalue()

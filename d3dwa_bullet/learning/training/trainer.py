@@ -340,6 +340,8 @@ class Trainer:
     def _evaluate_and_keep(self, logs: MetricsLog, agent: Any, bar: Any) -> None:
         p = self.progress
         t0 = time.perf_counter()
+        worlds = len(self.config.eval_worlds) * len(self.config.eval_seeds)
+        bar.set_postfix_str(f"evaluating: {worlds} greedy episodes", refresh=True)
         result = greedy_eval.evaluate(agent, self.config, p.env_steps)
         p.timing["eval"] += time.perf_counter() - t0
         p.evals.append(result)
