@@ -26,6 +26,7 @@ PURE = (
     "d3dwa_bullet.learning.reward",
     "d3dwa_bullet.evaluation.metrics",
     "d3dwa_bullet.evaluation.stats",
+    "d3dwa_bullet.evaluation.seed_stats",
     "d3dwa_bullet.geometry",
 )
 
