@@ -80,6 +80,21 @@ def _bootstrap(
     return float(result.confidence_interval.low), float(result.confidence_interval.high)
 
 
+def _mean_of_means(*xs: np.ndarray) -> float:
+    return float(np.mean([np.mean(x) for x in xs]))
+
+
+def _pooled_iqm(*xs: np.ndarray) -> float:
+    return iqm(np.concatenate(xs))
+
+
+def _interval(
+    tasks: list[np.ndarray], statistic, confidence: float, resamples: int, seed: int
+) -> Interval:
+    low, high = _bootstrap(tasks, statistic, confidence, resamples, seed)
+    return Interval(statistic(*tasks), low, high)
+
+
 def mean_interval(
     scores: Sequence[Sequence[float]],
     confidence: float = CONFIDENCE,
@@ -87,13 +102,7 @@ def mean_interval(
     seed: int = SEED,
 ) -> Interval:
     """Mean over tasks of the per-task mean score; scores[task] holds one score per seed."""
-    tasks = _tasks(scores)
-
-    def statistic(*xs: np.ndarray) -> float:
-        return float(np.mean([np.mean(x) for x in xs]))
-
-    low, high = _bootstrap(tasks, statistic, confidence, resamples, seed)
-    return Interval(statistic(*tasks), low, high)
+    return _interval(_tasks(scores), _mean_of_means, confidence, resamples, seed)
 
 
 def iqm_interval(
@@ -103,13 +112,7 @@ def iqm_interval(
     seed: int = SEED,
 ) -> Interval:
     """IQM of all scores pooled over tasks, with the stratified bootstrap interval."""
-    tasks = _tasks(scores)
-
-    def statistic(*xs: np.ndarray) -> float:
-        return iqm(np.concatenate(xs))
-
-    low, high = _bootstrap(tasks, statistic, confidence, resamples, seed)
-    return Interval(statistic(*tasks), low, high)
+    return _interval(_tasks(scores), _pooled_iqm, confidence, resamples, seed)
 
 
 def _improvement(x: np.ndarray, y: np.ndarray) -> float:
@@ -134,5 +137,4 @@ def probability_of_improvement(
     def statistic(*samples: np.ndarray) -> float:
         return float(np.mean([_improvement(samples[i], samples[n + i]) for i in range(n)]))
 
-    low, high = _bootstrap([*xs, *ys], statistic, confidence, resamples, seed)
-    return Interval(statistic(*xs, *ys), low, high)
+    return _interval([*xs, *ys], statistic, confidence, resamples, seed)

@@ -30,6 +30,7 @@ import d3dwa_bullet.episode as episode_module
 from d3dwa_bullet.cli.app import build_parser, main
 from d3dwa_bullet.cli.output import json_text, strict
 from d3dwa_bullet.sim.scan import LaserScan
+from tests.conftest import ONE_SECOND_WORLD
 from tests.support.bag_messages import scan_msg
 from transfer import sim_bridge
 from transfer.bag_writer import BagRecorder
@@ -37,15 +38,7 @@ from transfer.replay import replay_bag
 from transfer.topics import LASER_SCAN, TopicMap
 
 MS = 1_000_000
-TINY = {
-    "name": "tiny",
-    "group": "custom",
-    "description": "a post beside the way",
-    "start": [0.0, 0.0, 0.0],
-    "goal": [1.6, 0.0],
-    "time_limit": 1.0,
-    "obstacles": [{"type": "cylinder", "center": [0.8, 0.35], "radius": 0.1}],
-}
+TINY = ONE_SECOND_WORLD
 MESH_ONLY_SDF = """<?xml version="1.0"?>
 <sdf version="1.7"><world name="w">
   <include><uri>model://ground_plane</uri></include>
