@@ -46,6 +46,11 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--export", help="also copy the run's policy here when done (e.g. policies/d3dwa)"
     )
+    p.add_argument(
+        "--ray",
+        metavar="ADDRESS",
+        help="with --seeds: each seed a Ray task (local, auto, HOST:PORT or ray://HOST:PORT)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
 
@@ -63,6 +68,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         raise ConfigError(f"--total-steps must be >= 1, got {args.total_steps}")
     if args.seeds is not None:
         return _train_seeds(args)
+    if args.ray is not None:
+        raise ConfigError("--ray runs the seeds of --seeds as Ray tasks: give --seeds too")
     if args.n_envs is not None and args.n_envs < 0:
         raise ConfigError(f"--n-envs must be >= 1 (or 0: one per core), got {args.n_envs}")
     overrides = {
@@ -157,7 +164,7 @@ def _train_seeds(args: argparse.Namespace) -> int:
 
     try:
         outcomes = train_seeds(config, args.out, seeds, resume=args.resume, export=args.export,
-                               progress=not quiet, on_seed=report)  # fmt: skip
+                               progress=not quiet, on_seed=report, ray_address=args.ray)  # fmt: skip
     except KeyboardInterrupt:  # a second Ctrl-C: stopped without saving
         print(
             f"d3dwa: training aborted; resume with --seeds {args.seeds} --resume", file=sys.stderr

@@ -145,3 +145,28 @@ def test_total_steps_errors_name_the_option(tmp_path: Path, capsys) -> None:
     config = str(configs_dir() / "d3dwa.yaml")
     assert main(["train", "--config", config, "--total-steps", "-5", "--out", str(tmp_path)]) == 2
     assert capsys.readouterr().err.strip() == "d3dwa: error: --total-steps must be >= 1, got -5"
+
+
+def test_seeds_as_ray_tasks_write_the_runs_a_local_run_writes(tiny: str, tmp_path: Path) -> None:
+    """A private local Ray instance (ray.init(address='local')), as the eval tests start."""
+    ray = pytest.importorskip("ray", reason="ray is not installed (pip install '.[ray]')")
+    from tests.learning.test_training import _episodes
+
+    config = _config(tiny, total_steps=30)
+    local = train_seeds(config, tmp_path / "local", [0, 1], progress=False)
+    try:
+        on_ray = train_seeds(config, tmp_path / "ray", [0, 1], ray_address="local", progress=False)
+    finally:
+        if ray.is_initialized():
+            ray.shutdown()
+    assert [o.status for o in on_ray] == [o.status for o in local] == ["done", "done"]
+    for k in (0, 1):
+        assert _episodes(tmp_path / "ray" / f"seed-{k}") == _episodes(
+            tmp_path / "local" / f"seed-{k}"
+        )
+    assert not ray.is_initialized()
+
+
+def test_ray_without_seeds_is_refused(tmp_path: Path, capsys) -> None:
+    assert main(["train", "--method", "d3dwa", "--ray", "local", "--out", str(tmp_path)]) == 2
+    assert "--seeds" in capsys.readouterr().err

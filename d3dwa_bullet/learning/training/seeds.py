@@ -6,6 +6,11 @@ config into its own run directory, one after the other (each run already uses ev
 With ``--resume`` a seed whose run is complete is skipped, one with a checkpoint continues
 and one never started starts. A seed that fails is reported and the others still run; the
 failed ones resume later. ``--export DIR`` ships every finished seed as ``DIR/seed-<k>/``.
+
+With ``--ray ADDRESS`` (the forms ``d3dwa eval`` accepts) each seed is a Ray task asking
+for ``n_envs`` CPUs, its env workers inside it, writing the same run directory as a local
+run (the run directories must be on a filesystem every node sees). A task that dies is
+that seed's failure; the other seeds are kept.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import ConfigError, D3DWAError
+from d3dwa_bullet.evaluation.backends import check_address, ray_session
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.learning.training.checkpoints import export_policy
 from d3dwa_bullet.learning.training.config import TrainConfig, check_selection_rule
@@ -86,6 +92,7 @@ def train_seeds(
     export: str | Path | None = None,
     progress: bool = True,
     on_seed: Callable[[SeedOutcome], None] | None = None,
+    ray_address: str | None = None,
 ) -> list[SeedOutcome]:
     """Train ``config`` once per seed into ``out/seed-<k>/`` (module docstring).
 
@@ -96,6 +103,7 @@ def train_seeds(
     if not seeds:
         raise ConfigError("--seeds: no seed given")
     check_selection_rule(config)
+    check_address(ray_address)
     if not resume:
         taken = [
             str(seed_dir(out, s)) for s in seeds if (seed_dir(out, s) / "config.json").exists()
@@ -105,28 +113,84 @@ def train_seeds(
                 f"{taken[0]} already holds a training run; continue with --resume or choose "
                 "another --out"
             )
+    todo = []
     outcomes: list[SeedOutcome] = []
     for seed in seeds:
         run = seed_dir(out, seed)
-        seeded = replace(config, seed=seed)
-        if resume and _complete(run, seeded.total_steps):
-            outcome = SeedOutcome(seed, run, "skipped")
+        if resume and _complete(run, config.total_steps):
+            outcomes.append(_finish(SeedOutcome(seed, run, "skipped"), config, export, on_seed))
         else:
-            again = resume and checkpoint_dir(run, "latest").is_dir()
-            try:
-                summary = train(seeded, run, resume=again, progress=progress)
-            except D3DWAError as err:
-                outcome = SeedOutcome(seed, run, "failed", error=str(err))
-            else:
-                outcome = SeedOutcome(seed, run, summary["status"], summary=summary)
-        if export is not None and outcome.status in ("done", "skipped"):
-            dest = export_policy(run, seed_dir(Path(export), seed), seeded.keep)
-            # the run's summary travels with the policy (counters, evaluations, wall time)
-            atomic_write_text(dest / SUMMARY_FILE, (run / SUMMARY_FILE).read_text())
-            outcome.exported = dest
-        outcomes.append(outcome)
-        if on_seed is not None:
-            on_seed(outcome)
+            todo.append((seed, run, resume and checkpoint_dir(run, "latest").is_dir()))
+    if ray_address is not None:
+        return outcomes + _train_on_ray(config, todo, ray_address, export, on_seed)
+    for seed, run, again in todo:
+        try:
+            summary = train(replace(config, seed=seed), run, resume=again, progress=progress)
+        except D3DWAError as err:
+            outcome = SeedOutcome(seed, run, "failed", error=str(err))
+        else:
+            outcome = SeedOutcome(seed, run, summary["status"], summary=summary)
+        outcomes.append(_finish(outcome, config, export, on_seed))
         if outcome.status == "interrupted":
             break
     return outcomes
+
+
+def _finish(
+    outcome: SeedOutcome,
+    config: TrainConfig,
+    export: str | Path | None,
+    on_seed: Callable[[SeedOutcome], None] | None,
+) -> SeedOutcome:
+    """Export a finished seed (policy + config + curve + summary) and report it."""
+    if export is not None and outcome.status in ("done", "skipped"):
+        dest = export_policy(outcome.out, seed_dir(Path(export), outcome.seed), config.keep)
+        # the run's summary travels with the policy (counters, evaluations, wall time)
+        atomic_write_text(dest / SUMMARY_FILE, (outcome.out / SUMMARY_FILE).read_text())
+        outcome.exported = dest
+    if on_seed is not None:
+        on_seed(outcome)
+    return outcome
+
+
+def _seed_task(config: TrainConfig, run: str, resume: bool) -> dict[str, Any]:
+    """One seed's training as a Ray task (no progress bar: nobody watches a task's stderr)."""
+    return train(config, Path(run), resume=resume, progress=False)
+
+
+def _train_on_ray(
+    config: TrainConfig,
+    todo: list[tuple[int, Path, bool]],
+    address: str,
+    export: str | Path | None,
+    on_seed: Callable[[SeedOutcome], None] | None,
+) -> list[SeedOutcome]:
+    outcomes: list[SeedOutcome] = []
+    with ray_session(address, workers=config.n_envs) as ray:
+        task = ray.remote(num_cpus=config.n_envs)(_seed_task)
+        pending = {
+            task.remote(replace(config, seed=seed), str(run), again): (seed, run)
+            for seed, run, again in todo
+        }
+        try:
+            while pending:
+                done, _ = ray.wait(list(pending), num_returns=1)
+                seed, run = pending.pop(done[0])
+                try:
+                    summary = ray.get(done[0])
+                except (ray.exceptions.RayTaskError, ray.exceptions.RayError) as err:
+                    cause = getattr(err, "cause", None)
+                    message = str(cause) if isinstance(cause, D3DWAError) else _first_line(err)
+                    outcome = SeedOutcome(seed, run, "failed", error=message)
+                else:
+                    outcome = SeedOutcome(seed, run, summary["status"], summary=summary)
+                outcomes.append(_finish(outcome, config, export, on_seed))
+        finally:
+            for ref in pending:  # interrupted: cancel the seeds not finished
+                ray.cancel(ref, force=True)
+    return sorted(outcomes, key=lambda o: o.seed)
+
+
+def _first_line(err: BaseException) -> str:
+    text = str(err).strip()
+    return f"the Ray task died: {text.splitlines()[0] if text else type(err).__name__}"
