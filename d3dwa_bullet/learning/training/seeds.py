@@ -121,8 +121,10 @@ def train_seeds(
             outcomes.append(_finish(SeedOutcome(seed, run, "skipped"), config, export, on_seed))
         else:
             todo.append((seed, run, resume and checkpoint_dir(run, "latest").is_dir()))
+    order = {seed: i for i, seed in enumerate(seeds)}
     if ray_address is not None:
-        return outcomes + _train_on_ray(config, todo, ray_address, export, on_seed)
+        outcomes += _train_on_ray(config, todo, ray_address, export, on_seed)
+        return sorted(outcomes, key=lambda o: order[o.seed])
     for seed, run, again in todo:
         try:
             summary = train(replace(config, seed=seed), run, resume=again, progress=progress)
@@ -133,7 +135,7 @@ def train_seeds(
         outcomes.append(_finish(outcome, config, export, on_seed))
         if outcome.status == "interrupted":
             break
-    return outcomes
+    return sorted(outcomes, key=lambda o: order[o.seed])
 
 
 def _finish(
@@ -188,7 +190,7 @@ def _train_on_ray(
         finally:
             for ref in pending:  # interrupted: cancel the seeds not finished
                 ray.cancel(ref, force=True)
-    return sorted(outcomes, key=lambda o: o.seed)
+    return outcomes
 
 
 def _first_line(err: BaseException) -> str:
