@@ -25,7 +25,7 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--config",
-        help="training config YAML (default: configs/<method>.yaml of the repository)",
+        help="training config YAML (default: the shipped configs/<method>.yaml)",
     )
     p.add_argument("--out", help="run directory (default: runs/<method>__s<seed>__<time>)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out exactly")
