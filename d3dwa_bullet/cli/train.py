@@ -119,7 +119,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     )
     if best:
         print(
-            f"best greedy evaluation (training worlds) at step {best['step']}: success "
+            f"best greedy evaluation (eval_worlds) at step {best['step']}: success "
             f"{best['success_rate']:.2f}, collisions {best['collision_rate']:.2f}"
         )
     if summary["status"] == "interrupted":

@@ -215,7 +215,7 @@ def learning_curve(
                  color="tab:red", label="greedy evaluation")  # fmt: skip
     if evals:
         ax2.plot([r["step"] for r in evals], [r["value"] for r in evals], "o-", color="tab:red",
-                 label="greedy evaluation (training worlds)")  # fmt: skip
+                 label="greedy evaluation (eval_worlds)")  # fmt: skip
     ax1.set_ylabel("episodic return")
     ax2.set_ylabel("success rate")
     ax2.set_ylim(-0.05, 1.05)

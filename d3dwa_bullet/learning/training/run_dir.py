@@ -12,7 +12,7 @@ Layout::
     <out>/learning_curve.png   return and success rate vs environment steps
     <out>/summary.json         status, counters, wall time, throughput, evaluations
     <out>/checkpoints/latest/  resumable: policy + config.json + training state
-    <out>/checkpoints/best/    policy with the best greedy evaluation (training worlds)
+    <out>/checkpoints/best/    policy with the best greedy evaluation (on eval_worlds)
     <out>/checkpoints/final/   policy at the end of the budget
     <out>/policy/              the policy to ship (``keep``: best or final) + config.json
                                + learning_curve.png, no replay buffer
