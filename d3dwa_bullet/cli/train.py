@@ -66,12 +66,12 @@ def cmd_train(args: argparse.Namespace) -> int:
 
     if args.total_steps is not None and args.total_steps < 1:
         raise ConfigError(f"--total-steps must be >= 1, got {args.total_steps}")
+    if args.n_envs is not None and args.n_envs < 0:
+        raise ConfigError(f"--n-envs must be >= 1 (or 0: one per core), got {args.n_envs}")
     if args.seeds is not None:
         return _train_seeds(args)
     if args.ray is not None:
         raise ConfigError("--ray runs the seeds of --seeds as Ray tasks: give --seeds too")
-    if args.n_envs is not None and args.n_envs < 0:
-        raise ConfigError(f"--n-envs must be >= 1 (or 0: one per core), got {args.n_envs}")
     overrides = {
         "method": args.method,
         "total_steps": args.total_steps,
@@ -146,8 +146,6 @@ def _train_seeds(args: argparse.Namespace) -> int:
         if not args.method:
             raise ConfigError("--seeds needs --config FILE or --method NAME")
         args.config = str(configs_dir() / f"{args.method}.yaml")
-    if args.n_envs is not None and args.n_envs < 0:
-        raise ConfigError(f"--n-envs must be >= 1 (or 0: one per core), got {args.n_envs}")
     config = load_train_config(
         args.config, method=args.method, total_steps=args.total_steps, n_envs=args.n_envs
     )

@@ -211,7 +211,6 @@ class D3QNAgent:
         """Transitions observed."""
         self.train_steps = 0
         """Gradient steps taken (advances epsilon)."""
-        self._updated_at = -1
         self.timing = {"sample": 0.0, "forward_backward": 0.0, "optimiser": 0.0,
                        "target_update": 0.0}  # fmt: skip
         """Seconds spent in each part of the gradient steps so far."""
@@ -292,7 +291,6 @@ class D3QNAgent:
             return {}
         c = self.config
         timing, t0 = self.timing, time.perf_counter()
-        self._updated_at = self.env_steps
         batch = self.replay.sample(c.batch_size)
         obs = torch.from_numpy(batch.obs)
         actions = torch.from_numpy(batch.actions)

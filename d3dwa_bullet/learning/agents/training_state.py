@@ -66,7 +66,6 @@ def training_state_files(agent: Agent, trainer: Mapping[str, Any]) -> dict[str, 
     }
     files: dict[str, bytes] = {}
     if isinstance(agent, D3QNAgent):
-        state["updated_at"] = agent._updated_at
         tensors: dict[str, Any] = {
             "target": {k: v.detach().clone() for k, v in agent.target.state_dict().items()},
             "optimizer": agent.optimizer.state_dict(),
@@ -124,7 +123,6 @@ def restore_training_state(directory: str | os.PathLike[str], agent: Agent) -> d
     agent.train_steps = int(state["train_steps"])
     _set_rng_state(agent._rng, state["agent_rng"], str(path))
     if isinstance(agent, D3QNAgent):
-        agent._updated_at = int(state["updated_at"])
         tpath = checked_file(root, TRAINING_TENSORS_FILE)
         try:
             tensors = torch.load(tpath, map_location="cpu", weights_only=True)

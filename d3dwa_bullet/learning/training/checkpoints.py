@@ -21,11 +21,11 @@ from d3dwa_bullet.errors import TrainingError
 from d3dwa_bullet.learning.agents.checkpoint import (
     CONFIG_FILE,
     CURVE_FILE,
+    Agent,
     load_checkpoint,
     save_checkpoint,
 )
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
-from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
 from d3dwa_bullet.learning.agents.training_state import (
     restore_training_state,
     training_state_files,
@@ -34,8 +34,6 @@ from d3dwa_bullet.learning.training.config import TrainConfig
 from d3dwa_bullet.learning.training.logs import MetricsLog, learning_curve
 from d3dwa_bullet.learning.training.run_dir import checkpoint_dir, config_bytes
 from d3dwa_bullet.learning.training.state import TrainingProgress
-
-Agent = D3QNAgent | DQDWAAgent
 
 
 def check_finite(agent: Agent, out: Path, step: int) -> None:

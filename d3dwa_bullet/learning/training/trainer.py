@@ -34,8 +34,8 @@ import d3dwa_bullet.learning.training.checkpoints as checkpoints
 import d3dwa_bullet.learning.training.greedy_eval as greedy_eval
 import d3dwa_bullet.learning.training.run_dir as run_dir
 from d3dwa_bullet.errors import TrainingError
+from d3dwa_bullet.learning.agents.checkpoint import Agent
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
-from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
 from d3dwa_bullet.learning.agents.replay import Transition
 from d3dwa_bullet.learning.training.collector import Collector, env_seeds
 from d3dwa_bullet.learning.training.config import TrainConfig, make_agent, make_env
@@ -49,8 +49,6 @@ from d3dwa_bullet.learning.training.state import (
     run_summary,
     truncate_logs,
 )
-
-Agent = D3QNAgent | DQDWAAgent
 
 
 class Trainer:
@@ -72,6 +70,8 @@ class Trainer:
         self.config = config
         self.resume = resume
         self.progress = TrainingProgress.start(config)
+        self._tau_slot = {h: i for i, h in enumerate(config.actions.horizons)}
+        """Horizon -> its slot in an episode's tau_counts."""
         """Counters, schedule, curriculum, episode in progress: what ``latest`` saves."""
         self._start = time.perf_counter()
         self._wall0 = 0.0
@@ -260,10 +260,6 @@ class Trainer:
         if weights is not None:
             env.set_task_weights(weights)
         return env.task_probabilities
-
-    @property
-    def _tau_slot(self) -> dict[float, int]:
-        return {h: i for i, h in enumerate(self.config.actions.horizons)}
 
     def _log_losses(self, updates: list[dict[str, float]]) -> None:
         acc = self.progress.loss_acc
