@@ -15,6 +15,7 @@ import numpy as np
 from d3dwa_bullet.errors import CheckpointError, UnknownNameError
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
 from d3dwa_bullet.planning.planner import PlannerAction
+from d3dwa_bullet.seed_dirs import seed_dirs
 from d3dwa_bullet.resources import policies_dir
 
 FIXED: dict[str, PlannerAction] = {
@@ -83,11 +84,12 @@ def make_controller(name: str, policy_path: str | Path | None = None) -> Control
             f"{path}: no policy for method {name!r}; train one with `d3dwa train --method {name}` "
             "or pass --policy PATH"
         )
-    seeds = sorted(p.name for p in path.glob("seed-*") if p.is_dir()) if path.is_dir() else []
+    seeds = seed_dirs(path)
+    source = str(path)
     if seeds and not (path / "meta.json").exists():
-        raise CheckpointError(
-            f"{path}: holds training seeds ({', '.join(seeds)}), not one policy; evaluating "
-            f"every seed is not built yet: pass --policy {path / seeds[0]} (one seed)"
-        )
+        # A folder of training seeds; one episode drives one of them: the first, never one
+        # chosen by its results. `d3dwa eval` and `d3dwa sweep` drive every seed.
+        first = next(iter(seeds))
+        path, source = seeds[first], f"{seeds[first]} (training seed {first} of {len(seeds)})"
     policy, actions, _ = load_policy(path, expected_actions=LEARNED[name])
-    return Controller(name, policy=policy, actions=actions, source=str(path))
+    return Controller(name, policy=policy, actions=actions, source=source)

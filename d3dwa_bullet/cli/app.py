@@ -5,11 +5,12 @@
     d3dwa eval --out results/             methods x worlds x seeds -> results.csv, table.md, figures
     d3dwa sweep --methods dwa1 --out DIR  methods x noise levels on R1-R3 + unseen layouts -> plots
     d3dwa report DIR                      a results directory -> DIR/report.md
+    d3dwa compare DIR --methods A,B       P(A improves on B) over training seeds, with intervals
     d3dwa train --config configs/d3dwa.yaml --out runs/d3dwa   train a learned method (--resume)
     d3dwa replay / record / compare-scans ROS bags (see d3dwa_bullet.cli.transfer)
 
 Each command is one module of this package (``worlds``, ``run``, ``eval``, ``sweep``,
-``report``, ``train``, ``bags``) with ``add_parser(sub)`` and its ``cmd_*(args)``; shared
+``report``, ``compare``, ``train``, ``bags``) with ``add_parser(sub)`` and its ``cmd_*(args)``; shared
 options are in ``options``. A command imports the simulator, torch or matplotlib only when
 it runs, so ``d3dwa --help`` and ``d3dwa worlds`` start quickly.
 
@@ -30,6 +31,7 @@ import threading
 from collections.abc import Sequence
 
 import d3dwa_bullet.cli.bags as bags_commands
+import d3dwa_bullet.cli.compare as compare_command
 import d3dwa_bullet.cli.eval as eval_command
 import d3dwa_bullet.cli.report as report_command
 import d3dwa_bullet.cli.run as run_command
@@ -45,6 +47,7 @@ COMMANDS = (
     eval_command,
     sweep_command,
     report_command,
+    compare_command,
     train_command,
     bags_commands,
 )

@@ -42,7 +42,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="comma list (default: fixed baselines + learned methods with a shipped policy)",
     )
     p.add_argument("--worlds", help="comma list of names or files (default: TS1..TS4,US1,H1..H3)")
-    p.add_argument("--seeds", type=int, default=1, help="number of seeds per (method, world)")
+    p.add_argument(
+        "--seeds", type=int, default=1, help="evaluation seeds per (method, training seed, world)"
+    )
+    p.add_argument(
+        "--policy-seeds",
+        help="training seeds of each learned method to evaluate: 'all' (default: every "
+        "seed-<k> folder shipped or in --policy), or a list like 0,2 or 0-3",
+    )
     p.add_argument("--seed", type=int, default=0, help="first seed")
     p.add_argument("--allow-empty", action="store_true", help=ALLOW_EMPTY_HELP)
     p.add_argument(
@@ -60,7 +67,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
     # start-up cost: the evaluation imports the simulator (pybullet) and the planner (numba)
     from d3dwa_bullet.evaluation.backends import check_address
     from d3dwa_bullet.evaluation.jobs import Job, evaluate, make_noise, world_figures
-    from d3dwa_bullet.evaluation.report import eval_markdown
+    from d3dwa_bullet.evaluation.policy_runs import method_runs
+    from d3dwa_bullet.evaluation.report import eval_markdown, figure_seeds, seeds_markdown
     from d3dwa_bullet.methods import check_method, make_controller
 
     check_address(args.ray)
@@ -72,12 +80,13 @@ def cmd_eval(args: argparse.Namespace) -> int:
     if args.seeds < 1:
         raise ConfigError(f"--seeds must be >= 1, got {args.seeds}")
     seeds = list(range(args.seed, args.seed + args.seeds))
-    for m in methods:  # fail fast on a missing policy or profile, before any episode runs
-        make_controller(m, policy)
+    runs = method_runs(methods, policy, args.policy_seeds)
+    for run in runs:  # fail fast on a missing policy or profile, before any episode runs
+        make_controller(run.method, run.policy)
     make_noise(args.noise, seeds[0])
     jobs = [
-        Job(w, m, s, args.noise, policy)
-        for w in worlds for m in methods for s in seeds
+        Job(w, r.method, s, args.noise, r.policy, policy_seed=r.policy_seed)
+        for w in worlds for r in runs for s in seeds
     ]  # fmt: skip
     out = check_out_dir(args.out, subdirs=("logs", "figures"))
     names = [w.name for w in worlds]
@@ -86,6 +95,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
         "worlds": names, "world_sources": [str(Path(a).resolve()) if Path(a).suffix else a
                                            for a in world_args],
         "seeds": seeds, "noise": args.noise,
+        "policy_seeds": {m: [r.policy_seed for r in runs if r.method == m and
+                             r.policy_seed is not None] for m in methods},
     }  # fmt: skip
     if policy:
         settings["policy"] = str(Path(policy).resolve())
@@ -95,11 +106,13 @@ def cmd_eval(args: argparse.Namespace) -> int:
     )  # fmt: skip
     table = eval_markdown(rows, methods, names, seeds, args.noise)
     atomic_write_text(out / "table.md", table)
-    figures = world_figures(out, worlds, methods, seeds[0], args.noise)
+    atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names))
+    figures = world_figures(out, worlds, methods, seeds[0], args.noise, figure_seeds(rows))
     if args.json:
         print(json_text(rows))
     else:
         print(table)
         print(f"results: {out / 'results.csv'}\ntable:   {out / 'table.md'}")
+        print(f"seeds:   {out / 'table_seeds.md'} (one row per training seed)")
         print(f"figures: {len(figures)} in {out / 'figures'}")
     return 0

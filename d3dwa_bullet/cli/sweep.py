@@ -50,6 +50,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--time-limit", type=float, help="episode time limit override, s")
     add_backend_options(p)
     p.add_argument("--policy", help="checkpoint directory (only with a single --methods)")
+    p.add_argument(
+        "--policy-seeds",
+        default="all",
+        help="training seeds of each learned method: 'all' (default) or a list like 0,2",
+    )
     p.add_argument("--json", action="store_true", help="print summary statistics as JSON")
     p.add_argument("--physics-hz", type=int, default=240, help="physics rate")
     p.add_argument("--control-hz", type=int, default=10, help="control (planning) rate")
@@ -59,8 +64,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def cmd_sweep(args: argparse.Namespace) -> int:
     # start-up cost: the sweep imports the simulator (pybullet) and the planner (numba)
     from d3dwa_bullet.evaluation.backends import check_address
+    from d3dwa_bullet.evaluation.noise_axes import AXES
     from d3dwa_bullet.evaluation.sweep import (
-        AXES,
         PROFILES,
         SHIPPED_WORLDS,
         STYLES,
@@ -77,7 +82,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         layouts=args.layouts, seeds=args.seeds, first_seed=args.seed, levels=args.levels,
         axes=tuple(split_list(args.axes) if args.axes is not None else AXES),
         profiles=tuple(split_list(args.profiles) if args.profiles is not None else PROFILES),
-        time_limit=time_limit_arg(args.time_limit),
+        time_limit=time_limit_arg(args.time_limit), policy_seeds=args.policy_seeds,
     )  # fmt: skip
     policy = policy_arg(args.policy, settings.methods)
     config = episode_config(args)

@@ -135,7 +135,8 @@ def _train_seeds(args: argparse.Namespace) -> int:
     """``--seeds``: one run per seed under --out (``learning.training.seeds``)."""
     # start-up cost: training imports torch (~1 s)
     from d3dwa_bullet.learning.training import load_train_config
-    from d3dwa_bullet.learning.training.seeds import SeedOutcome, parse_seeds, train_seeds
+    from d3dwa_bullet.learning.training.seeds import SeedOutcome, train_seeds
+    from d3dwa_bullet.seed_dirs import parse_seeds
 
     seeds = parse_seeds(args.seeds)
     if args.seed is not None:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import json
 import os
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -34,6 +34,7 @@ from d3dwa_bullet.evaluation.results import (
     drop_partial_row,
     load_log,
     order_results,
+    policy_seed_cell,
     read_results,
     row_key,
     save_log,
@@ -63,19 +64,26 @@ class Job:
     (the episode then gets ``NoiseModel(config, seed)``). A string keeps Job hashable."""
     columns: tuple[tuple[str, str | float | int], ...] = ()
     """Extra CSV columns of this job's row, e.g. (("axis", "slip"), ("level", 0.1))."""
+    policy_seed: int | None = None
+    """The training seed of ``policy`` (its ``seed-<k>`` folder), None if it has none."""
 
     @property
     def key(self) -> Key:
-        return (self.world.name, self.method, self.seed, self.noise)
+        return (self.world.name, self.method, self.policy_seed, self.seed, self.noise)
 
     @property
     def log_name(self) -> str:
-        name = f"{self.world.name}__{self.method}__{self.noise}__s{self.seed}"
+        trained = "" if self.policy_seed is None else f"__p{self.policy_seed}"
+        name = f"{self.world.name}__{self.method}{trained}__{self.noise}__s{self.seed}"
         return _UNSAFE.sub("_", name) + ".npz"
 
     def row(self, result: EpisodeResult) -> dict[str, Any]:
         """The CSV row of this job's result."""
-        return result.summary() | dict(self.columns)
+        return (
+            result.summary()
+            | {"policy_seed": policy_seed_cell(self.policy_seed)}
+            | dict(self.columns)
+        )
 
 
 def make_noise(profile: str, seed: int):
@@ -172,23 +180,33 @@ def evaluate(
 
 
 def world_figures(
-    out: Path, worlds: Iterable[World], methods: Sequence[str], seed: int, noise: str
+    out: Path,
+    worlds: Iterable[World],
+    methods: Sequence[str],
+    seed: int,
+    noise: str,
+    policy_seeds: Mapping[str, int | None] | None = None,
 ) -> list[Path]:
-    """One figure per world: every method's trajectory, coloured by time (and by tau for learned)."""
+    """One figure per world: every method's trajectory, coloured by time (and by tau for
+    learned). policy_seeds: the training seed whose episode is drawn, per method (default
+    none: a fixed method or a single policy)."""
     # matplotlib takes ~0.3 s to import; every spawned worker imports this module, none draws
     from d3dwa_bullet.evaluation.plotting import trajectory_figure
 
+    policy_seeds = policy_seeds or {}
     paths = []
     for world in worlds:
         runs = []
         for method in methods:
-            log_path = out / "logs" / Job(world, method, seed, noise).log_name
+            job = Job(world, method, seed, noise, policy_seed=policy_seeds.get(method))
+            log_path = out / "logs" / job.log_name
             if not log_path.exists():
                 continue
             log = load_log(log_path)
             runs.append(
                 {
-                    "label": LABELS.get(method, method),
+                    "label": LABELS.get(method, method)
+                    + ("" if job.policy_seed is None else f" (seed-{job.policy_seed})"),
                     "method": method,
                     "outcome": str(log["outcome"]),
                     "t": np.append(log["t"], log["t"][-1] + 0.1) if len(log["t"]) else np.zeros(1),

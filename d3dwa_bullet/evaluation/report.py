@@ -23,6 +23,7 @@ from typing import Any
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.jobs import world_figures
+from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.results import (
     check_results_dir,
     completion,
@@ -30,14 +31,14 @@ from d3dwa_bullet.evaluation.results import (
     read_results,
     row_key,
 )
+from d3dwa_bullet.evaluation.seed_tables import check_not_mixed, per_seed_table, seed_tables
 from d3dwa_bullet.evaluation.sweep import (
-    AXES,
     SweepSettings,
     read_sweep,
     sweep_figures,
     sweep_markdown,
 )
-from d3dwa_bullet.evaluation.tables import paper_table, success_table
+from d3dwa_bullet.evaluation.tables import paper_table
 from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text
 from d3dwa_bullet.methods import LABELS
 from d3dwa_bullet.resources import policies_dir as shipped_policies_dir
@@ -68,17 +69,45 @@ def eval_markdown(
     noise: str,
     title: str | None = None,
 ) -> str:
-    """The evaluation page of ``d3dwa eval`` (table.md): paper layout plus success rates."""
+    """The evaluation page of ``d3dwa eval`` (table.md): success and time over training
+    seeds with their intervals, then the paper's layout pooled over every episode."""
     span = f"{seeds[0]}..{seeds[-1]}" if seeds else "none"
     return (
         f"# {title or 'Evaluation: ' + ', '.join(worlds)}\n\n"
-        f"Noise profile: `{noise}`; seeds: {span}.\n\n"
-        "Time [s], TL [m], PD [rad] averaged over successful seeds; T = timeout, C = collision; "
-        "best per world and metric in bold.\n\n"
-        + paper_table(rows, methods, worlds)
-        + "\n## Success rate and time (mean ± std over seeds)\n\n"
-        + success_table(rows, methods, worlds)
+        f"Noise profile: `{noise}`; evaluation seeds: {span}.\n\n"
+        "## Over training seeds\n\n"
+        "A run is one training seed of a learned method (its episodes averaged) or one "
+        "evaluation seed of a fixed method. Intervals: 95 % stratified bootstrap over runs "
+        "(scipy.stats.bootstrap, percentile); time is the interquartile mean of the runs' "
+        "mean time to goal; *all* averages the worlds. Each training seed's row: "
+        "table_seeds.md.\n\n"
+        + seed_tables(rows, methods, worlds)
+        + "\n## Paper layout, pooled over every run\n\n"
+        "Time [s], TL [m], PD [rad] averaged over every successful episode; T = timeout, "
+        "C = collision; (k/n) where only k of n episodes succeeded; best per world and metric "
+        "in bold.\n\n" + paper_table(rows, methods, worlds)
     )
+
+
+def seeds_markdown(
+    rows: Sequence[dict[str, Any]], methods: Sequence[str], worlds: Sequence[str]
+) -> str:
+    """table_seeds.md: each training seed's row (fixed methods: one row)."""
+    return (
+        f"# Per training seed: {', '.join(worlds)}\n\n"
+        "Cells: successes/episodes, mean time to goal of the successes; T = timeout, "
+        "C = collision.\n\n" + per_seed_table(rows, methods, worlds)
+    )
+
+
+def figure_seeds(rows: Sequence[dict[str, Any]]) -> dict[str, int | None]:
+    """Per method, the training seed whose episodes the trajectory figures draw: the lowest."""
+    seeds: dict[str, set[int]] = {}
+    for r in rows:
+        found = seeds.setdefault(r["method"], set())
+        if r["policy_seed"] is not None:
+            found.add(r["policy_seed"])
+    return {m: min(found, default=None) for m, found in seeds.items()}
 
 
 def open_results(out: str | os.PathLike[str]) -> tuple[Path, dict[str, Any], list[dict]]:
@@ -94,6 +123,7 @@ def open_results(out: str | os.PathLike[str]) -> tuple[Path, dict[str, Any], lis
         raise ResultsError(f"{out / 'meta.json'}: missing 'jobs' or 'settings'")
     keys = {tuple(k) for k in meta["jobs"]}
     rows = [r for r in read_results(out) if row_key(r) in keys]
+    check_not_mixed(rows, str(out / "results.csv"))
     return out, meta, rows
 
 
@@ -163,8 +193,7 @@ def _eval_body(out: Path, meta: dict[str, Any], rows: list[dict], partial: bool)
     methods, worlds, seeds, noise = eval_settings(meta)
     note = " (PARTIAL)" if partial else ""
     body = eval_markdown(rows, methods, worlds, seeds, noise, title=f"Tables{note}")
-    body = "#" + body  # one level down inside the page
-    body = body.replace("\n## Success rate", f"\n### Success rate{note}")
+    body = "#" + body.replace("\n#", "\n##")  # one level down inside the page
     sources = meta["settings"].get("world_sources", worlds)
     loaded = []
     for name, src in zip(worlds, sources, strict=False):
@@ -174,7 +203,7 @@ def _eval_body(out: Path, meta: dict[str, Any], rows: list[dict], partial: bool)
             except Exception:  # a world file that moved: its figure is just left out
                 continue
     if loaded and seeds:
-        world_figures(out, loaded, methods, seeds[0], noise)
+        world_figures(out, loaded, methods, seeds[0], noise, figure_seeds(rows))
     figs = []
     for name in worlds:
         paths = [out / "figures" / f"{name}_{k}.png" for k in ("time", "tau")]

@@ -46,11 +46,12 @@ from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text, read_text
 if TYPE_CHECKING:  # for annotations only: this module reads and writes files, runs nothing
     from d3dwa_bullet.episode import EpisodeResult
 
-RESULTS_FORMAT = 2
-"""2: meta.json lists the run's job keys and settings (1 had neither)."""
+RESULTS_FORMAT = 3
+"""3: rows and job keys name the policy's training seed (2 had none; 1 had no job keys)."""
 CSV_FIELDS = (
     "world",
     "method",
+    "policy_seed",
     "seed",
     "noise",
     "outcome",
@@ -63,8 +64,12 @@ CSV_FIELDS = (
 DERIVED_PAGES = ("table.md", "sweep.md", "report.md")
 """Pages computed from results.csv; removed while a run is incomplete."""
 
-Key = tuple[str, str, int, str]
-"""(world, method, seed, noise): what identifies an episode in a results directory."""
+Key = tuple[str, str, int | None, int, str]
+"""(world, method, policy_seed, seed, noise): what identifies an episode in a results
+directory. policy_seed is the training seed of the policy that drove it (``seed-<k>`` of a
+method's policy folder), None for a fixed method or a policy that is not one of a folder's
+seeds; it is an empty cell in results.csv."""
+KEY_FIELDS = ("world", "method", "policy_seed", "seed", "noise")
 EPISODE_SETTINGS = {"time_limit": "--time-limit", "policy": "--policy"}
 """Settings (meta.json "settings") that change an episode but not its key, with the option
 that sets them: one directory holds one value of each."""
@@ -72,7 +77,12 @@ that sets them: one directory holds one value of each."""
 
 def row_key(row: Mapping[str, Any]) -> Key:
     """The key of a typed results row (see :func:`read_results`)."""
-    return (row["world"], row["method"], row["seed"], row["noise"])
+    return (row["world"], row["method"], row["policy_seed"], row["seed"], row["noise"])
+
+
+def policy_seed_cell(policy_seed: int | None) -> str:
+    """The results.csv cell of a policy seed ('' for None)."""
+    return "" if policy_seed is None else str(policy_seed)
 
 
 def read_results(out: Path) -> list[dict[str, Any]]:
@@ -86,6 +96,7 @@ def read_results(out: Path) -> list[dict[str, Any]]:
             raise ResultsError(f"{path}: missing columns {sorted(set(CSV_FIELDS) - set(row))}")
         try:
             row["seed"], row["steps"] = int(row["seed"]), int(row["steps"])
+            row["policy_seed"] = int(row["policy_seed"]) if row["policy_seed"] != "" else None
             for k in ("time_s", "tl_m", "pd_rad", "min_clearance_m"):
                 row[k] = float(row[k])
         except (TypeError, ValueError) as err:
@@ -171,7 +182,7 @@ def check_same_run(
     extra = [row_key(r) for r in rows if row_key(r) not in wanted]
     if extra:
         parts = []
-        for i, name in enumerate(("worlds", "methods", "seeds", "noise")):
+        for i, name in enumerate(("worlds", "methods", "policy seeds", "seeds", "noise")):
             listed = {k[i] for k in wanted}
             absent = sorted({k[i] for k in extra} - listed, key=str)
             if absent:
@@ -267,13 +278,12 @@ def order_results(out: Path, keys: Sequence[Key]) -> bool:
     if not table:
         return False
     header, rows = table[0], table[1:]
-    at = {name: header.index(name) for name in ("world", "method", "seed", "noise")}
-    rank = {(w, m, str(s), n): i for i, (w, m, s, n) in enumerate(keys)}
+    at = [header.index(name) for name in KEY_FIELDS]
+    rank = {(w, m, policy_seed_cell(p), str(s), n): i for i, (w, m, p, s, n) in enumerate(keys)}
     last = len(rank)
 
     def position(row: list[str]) -> int:
-        key = (row[at["world"]], row[at["method"]], row[at["seed"]], row[at["noise"]])
-        return rank.get(key, last)
+        return rank.get(tuple(row[i] for i in at), last)  # type: ignore[arg-type]
 
     buffer = io.StringIO(newline="")
     csv.writer(buffer).writerows([header, *sorted(rows, key=position)])

@@ -36,21 +36,23 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, UnknownNameError
 from d3dwa_bullet.evaluation.jobs import Job, evaluate, noise_config_json
+from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.plotting import sweep_figure
+from d3dwa_bullet.evaluation.policy_runs import method_runs
 from d3dwa_bullet.evaluation.results import CSV_FIELDS, completion, read_results, row_key
+from d3dwa_bullet.evaluation.seed_tables import condition_table
 from d3dwa_bullet.evaluation.stats import Series, group_series
 from d3dwa_bullet.evaluation.tables import series_table
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.methods import check_method, make_controller
-from d3dwa_bullet.sim.noise_config import LidarNoiseConfig, NoiseConfig, OdometryConfig, SlipConfig
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
 from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.registry import load_world, world_names
@@ -62,71 +64,8 @@ STYLES = ("R1-style", "R2-style", "R3-style")
 PROFILES = ("none", "paper", "real", "harsh")
 BASELINE = "none"
 """Noise label, axis and profile of the shared noise-free episodes."""
-SWEEP_FIELDS = (*CSV_FIELDS[:4], "axis", "level", "layout", *CSV_FIELDS[4:])
+SWEEP_FIELDS = (*CSV_FIELDS[:5], "axis", "level", "layout", *CSV_FIELDS[5:])
 LAYOUT_GROUPS = ("shipped", "generated")
-DROPOUT_KINDS = (0.1, 0.7, 0.2)
-"""(NaN, +inf, 0.0) proportions of dropped beams, as in the ``real`` profile."""
-
-
-@dataclass(frozen=True)
-class NoiseAxis:
-    """One noise source swept from 0 to ``harsh``."""
-
-    name: str
-    label: str
-    """Axis label for plots, with unit."""
-    sets: str
-    """What a level L sets (for reports)."""
-    harsh: float
-    """The top of the axis (several times the ``harsh`` profile)."""
-    build: Callable[[float], NoiseConfig] = field(repr=False, compare=False)
-    """Level -> the episode's NoiseConfig (every other model off)."""
-
-    def levels(self, n: int) -> list[float]:
-        """The n non-zero levels, equally spaced up to harsh."""
-        return [round(self.harsh * i / n, 6) for i in range(1, n + 1)]
-
-
-AXES: dict[str, NoiseAxis] = {
-    a.name: a
-    for a in (
-        NoiseAxis(
-            "lidar_dropout",
-            "lidar beam dropout probability",
-            "lidar.dropout_prob = L; dropped beams read NaN / +inf / 0 in proportions 1:7:2",
-            0.5,
-            lambda v: NoiseConfig(
-                lidar=LidarNoiseConfig(dropout_prob=v, dropout_kinds=DROPOUT_KINDS)
-            ),
-        ),
-        NoiseAxis(
-            "lidar_range",
-            "lidar range noise std [m]",
-            "lidar.range_std = L m (Gaussian, on valid returns)",
-            0.10,
-            lambda v: NoiseConfig(lidar=LidarNoiseConfig(range_std=v)),
-        ),
-        NoiseAxis(
-            "slip",
-            "wheel slip ratio (per-episode mean)",
-            "slip.level_mean = L, level_std = L/4 (wheels differ), step_std = L/10",
-            0.4,
-            lambda v: NoiseConfig(slip=SlipConfig(level_mean=v, level_std=v / 4, step_std=v / 10)),
-        ),
-        NoiseAxis(
-            "odometry",
-            "odometry drift level L",
-            "odometry.walk_std = L m/√s, yaw_walk_std = L rad/√s, "
-            "radius_error_std = track_error_std = L",
-            0.04,
-            lambda v: NoiseConfig(
-                odometry=OdometryConfig(
-                    radius_error_std=v, track_error_std=v, walk_std=v, yaw_walk_std=v
-                )
-            ),
-        ),
-    )
-}
 
 
 @dataclass(frozen=True)
@@ -167,6 +106,8 @@ class SweepSettings:
     """Named randomisation profiles to run as a whole."""
     time_limit: float | None = None
     """Episode time limit override, s (default: the world's, else 60 s)."""
+    policy_seeds: str = "all"
+    """Training seeds of each learned method (``--policy-seeds``; see policy_runs)."""
 
     def __post_init__(self) -> None:
         for name in ("layouts", "seeds", "levels"):
@@ -225,13 +166,15 @@ def sweep_worlds(settings: SweepSettings) -> list[tuple[World, str]]:
 
 
 def sweep_jobs(settings: SweepSettings, policy: str | None = None) -> list[Job]:
-    """Every episode of the sweep: worlds x methods x conditions x seeds."""
+    """Every episode of the sweep: worlds x (methods x training seeds) x conditions x seeds."""
     seeds = range(settings.first_seed, settings.first_seed + settings.seeds)
+    runs = method_runs(settings.methods, policy, settings.policy_seeds)
     return [
-        Job(world, method, seed, c.noise, policy, c.noise_config,
-            (("axis", c.axis), ("level", "" if c.level is None else c.level), ("layout", group)))
+        Job(world, run.method, seed, c.noise, run.policy, c.noise_config,
+            (("axis", c.axis), ("level", "" if c.level is None else c.level), ("layout", group)),
+            policy_seed=run.policy_seed)
         for world, group in sweep_worlds(settings)
-        for method in settings.methods
+        for run in runs
         for c in conditions(settings)
         for seed in seeds
     ]  # fmt: skip
@@ -256,13 +199,20 @@ def axis_series(rows: Sequence[Mapping[str, Any]], axis: str, methods: Sequence[
     return group_series(groups, LAYOUT_GROUPS, methods)
 
 
+def profile_of(row: Mapping[str, Any]) -> str | None:
+    """The profile a row ran under (none = the baseline), None for an axis level."""
+    if row["axis"] == BASELINE:
+        return BASELINE
+    return row["noise"] if row["axis"] == "profile" else None
+
+
 def profile_series(
     rows: Sequence[Mapping[str, Any]], profiles: Sequence[str], methods: Sequence[str]
 ) -> Series:
     """Stats per layout group, method and profile (none = the baseline)."""
     groups: dict[tuple[str, str, str], list[Mapping[str, Any]]] = defaultdict(list)
     for r in rows:
-        name = BASELINE if r["axis"] == BASELINE else r["noise"] if r["axis"] == "profile" else None
+        name = profile_of(r)
         if name in profiles:
             groups[(r["layout"], r["method"], name)].append(r)
     order = {p: i for i, p in enumerate(profiles)}
@@ -335,6 +285,15 @@ def sweep_markdown(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -
         parts.append("\n### Named profiles\n\n")
         series = profile_series(rows, settings.profiles, settings.methods)
         parts.append(series_table(series, settings.profiles))
+        parts.append(
+            "\n### Named profiles over training seeds\n\nSuccess rate [%] averaged over the "
+            "layouts of a group, 95 % stratified bootstrap over runs (a learned method's "
+            "training seeds, a fixed method's evaluation seeds).\n\n"
+        )
+        parts.append(
+            condition_table(rows, settings.methods, settings.profiles, profile_of,
+                            [g for g in LAYOUT_GROUPS if g in titles], lambda r: r["layout"])
+        )  # fmt: skip
     return "".join(parts)
 
 
@@ -367,8 +326,8 @@ def run_sweep(
 ) -> tuple[list[dict[str, Any]], bool]:
     """Run (or resume) a sweep into out; returns (rows, complete). When complete, writes
     sweep.md and (with figures) figures/sweep_*.png."""
-    for m in settings.methods:  # fail fast on a missing policy, before any episode runs
-        make_controller(m, policy)
+    for run in method_runs(settings.methods, policy, settings.policy_seeds):
+        make_controller(run.method, run.policy)  # fail fast on a missing policy
     out = Path(out)
     jobs = sweep_jobs(settings, policy)
     meta = {"kind": "sweep", "command": command} | settings.to_dict()

@@ -78,33 +78,6 @@ def paper_table(
     return "\n".join(lines) + "\n"
 
 
-def success_table(
-    rows: Sequence[dict[str, Any]], methods: Sequence[str], worlds: Sequence[str]
-) -> str:
-    """Success rate and time mean +- std over seeds, per method and world, plus an overall rate."""
-    groups = _group(rows)
-    lines = [
-        "| Method | " + " | ".join(worlds) + " | success |",
-        "|---|" + "---:|" * (len(worlds) + 1),
-    ]
-    for m in methods:
-        cells, n_ok, n_all = [], 0, 0
-        for w in worlds:
-            rs = groups.get((m, w), [])
-            ok = [r["time_s"] for r in rs if r["outcome"] == "goal"]
-            n_ok, n_all = n_ok + len(ok), n_all + len(rs)
-            if not rs:
-                cells.append("")
-            elif ok:
-                cells.append(f"{len(ok)}/{len(rs)}, {np.mean(ok):.1f} ± {np.std(ok):.1f} s")
-            else:
-                n_c = sum(r["outcome"] == "collision" for r in rs)
-                cells.append(f"0/{len(rs)} ({n_c} C, {len(rs) - n_c} T)")
-        rate = f"{100.0 * n_ok / n_all:.0f} %" if n_all else ""
-        lines.append(f"| {LABELS.get(m, m)} | " + " | ".join(cells) + f" | {rate} |")
-    return "\n".join(lines) + "\n"
-
-
 def _cell(s: CellStats) -> str:
     text = f"{s.successes}/{s.n}"
     if s.successes:

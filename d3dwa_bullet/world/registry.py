@@ -104,6 +104,11 @@ def world_names(*groups: str) -> tuple[str, ...]:
     return tuple(name for name, group, _ in _shipped(worlds_dir()) if not groups or group in groups)
 
 
+def world_groups() -> dict[str, str]:
+    """The group of every shipped world, by name, in listing order."""
+    return {name: group for name, group, _ in _shipped(worlds_dir())}
+
+
 def list_worlds() -> list[World]:
     """Every shipped world, loaded, in listing order."""
     return [load_world_file(p) for p in world_paths().values()]

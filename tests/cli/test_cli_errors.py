@@ -373,7 +373,7 @@ def test_eval_never_writes_a_table_that_disagrees_with_its_csv(tmp_path, capsys,
     # Extending (more seeds) is a merge: the table covers every row of the CSV.
     assert main([str(a) for a in [*base, "--methods", "dwa1,dwa3", "--seeds", "2"]]) == 0
     meta = json.loads((out / "meta.json").read_text())
-    assert csv_keys(out) == {(w, m, str(s)) for w, m, s, _ in meta["jobs"]}
+    assert csv_keys(out) == {(w, m, str(s)) for w, m, _, s, _ in meta["jobs"]}
     assert len(csv_keys(out)) == 4 and table_methods(out) == {"DWA I (1,1,2)", "DWA III (2,1,1)"}
     capsys.readouterr()
     line = refused(capsys, *base, "--methods", "dwa1,dwa3")  # back to one seed: refused

@@ -48,7 +48,7 @@ def rows(out) -> list[tuple]:
         return sorted(tuple(r.values()) for r in csv.DictReader(fh))
 
 
-FIELDS = ("world", "method", "seed", "noise", "tag", "outcome", "time_s", "tl_m", "pd_rad",
+FIELDS = ("world", "method", "policy_seed", "seed", "noise", "tag", "outcome", "time_s", "tl_m", "pd_rad",
           "min_clearance_m", "steps")  # fmt: skip
 
 
@@ -75,7 +75,7 @@ def in_process(in_process_dir):
 
 def test_seeds_matter_so_the_comparison_means_something(in_process):
     assert len(in_process) == 4
-    by_seed = {r[2]: r[6:] for r in in_process if r[1] == "dwa1"}
+    by_seed = {r[3]: r[7:] for r in in_process if r[1] == "dwa1"}
     assert by_seed["0"] != by_seed["1"]
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from d3dwa_bullet.evaluation.metrics import body_clearance, posture_displacement, trajectory_length
-from d3dwa_bullet.evaluation.tables import paper_table, success_table
+from d3dwa_bullet.evaluation.tables import paper_table
 from d3dwa_bullet.world.model import Box, World
 
 
@@ -53,9 +53,3 @@ def test_paper_table_marks_failures_partial_success_and_bold_best():
     assert dwa2[2].strip() == "**9.00** (1/2)" and dwa2[4].strip() == "**0.50**"
     assert [c.strip() for c in dwa1[5:8]] == ["C", "--", "--"]  # all collisions
     assert dwa2[5].strip() == "T"  # any timeout among failures
-
-
-def test_success_table_counts_and_spreads():
-    table = success_table(rows(), ["dwa1", "dwa2"], ["TS1", "TS2"])
-    assert "2/2, 11.0 ± 1.0 s" in table and "0/2 (2 C, 0 T)" in table
-    assert table.splitlines()[2].rstrip().endswith("| 50 % |")

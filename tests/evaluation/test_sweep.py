@@ -20,9 +20,9 @@ from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation import jobs as evaluation
 from d3dwa_bullet.evaluation.jobs import evaluate
+from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.stats import t_interval, wilson_interval
 from d3dwa_bullet.evaluation.sweep import (
-    AXES,
     SWEEP_FIELDS,
     SweepSettings,
     conditions,

@@ -12,8 +12,9 @@ import d3dwa_bullet.learning.training.seeds as seeds_module
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.errors import ConfigError, TrainingError
 from d3dwa_bullet.learning.training import TrainConfig, load_train_config, train
-from d3dwa_bullet.learning.training.seeds import parse_seeds, train_seeds
+from d3dwa_bullet.learning.training.seeds import train_seeds
 from d3dwa_bullet.resources import configs_dir, policies_dir
+from d3dwa_bullet.seed_dirs import parse_seeds
 from tests.learning.test_training import TINY_WORLD, _config, _weights
 
 
@@ -111,16 +112,16 @@ def test_keep_best_refuses_worlds_a_table_reports(tiny: str, tmp_path: Path) -> 
     assert load_train_config(policies_dir() / "d3dwa" / "config.json").keep == "best"
 
 
-def test_a_folder_of_seeds_is_not_taken_for_one_policy(tmp_path: Path) -> None:
+def test_one_episode_of_a_folder_of_seeds_drives_its_first_seed(tmp_path: Path) -> None:
     import shutil
 
-    from d3dwa_bullet.errors import CheckpointError
     from d3dwa_bullet.methods import make_controller
 
-    shutil.copytree(policies_dir() / "d3dwa", tmp_path / "d3dwa" / "seed-0")
-    with pytest.raises(CheckpointError, match="seed-0"):
-        make_controller("d3dwa", tmp_path / "d3dwa")
-    assert make_controller("d3dwa", tmp_path / "d3dwa" / "seed-0").policy is not None
+    for k in (3, 1):
+        shutil.copytree(policies_dir() / "d3dwa", tmp_path / "d3dwa" / f"seed-{k}")
+    controller = make_controller("d3dwa", tmp_path / "d3dwa")
+    assert controller.source == f"{tmp_path / 'd3dwa' / 'seed-1'} (training seed 1 of 2)"
+    assert make_controller("d3dwa", tmp_path / "d3dwa" / "seed-3").policy is not None
 
 
 @pytest.mark.parametrize(

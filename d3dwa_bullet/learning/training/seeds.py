@@ -28,39 +28,7 @@ from d3dwa_bullet.learning.training.checkpoints import export_policy
 from d3dwa_bullet.learning.training.config import TrainConfig, check_selection_rule
 from d3dwa_bullet.learning.training.run_dir import SUMMARY_FILE, checkpoint_dir
 from d3dwa_bullet.learning.training.trainer import train
-
-SEED_DIR = "seed-{}"
-
-
-def parse_seeds(text: str, option: str = "--seeds") -> list[int]:
-    """'0-4' -> [0, 1, 2, 3, 4]; '0,3,7' -> [0, 3, 7]; ranges and lists mix ('0-2,5').
-
-    ConfigError naming ``option`` and the bad part for anything else (negative, empty,
-    reversed ranges, repeats)."""
-    seeds: list[int] = []
-    for part in text.split(","):
-        part = part.strip()
-        try:
-            if "-" in part[1:]:
-                lo, hi = (int(x) for x in part.split("-", 1))
-                if hi < lo:
-                    raise ValueError
-                seeds.extend(range(lo, hi + 1))
-            else:
-                seeds.append(int(part))
-        except ValueError:
-            raise ConfigError(
-                f"{option}: {part!r} in {text!r} is not a seed or a range like 0-4"
-            ) from None
-    if any(s < 0 for s in seeds):
-        raise ConfigError(f"{option}: seeds must be >= 0, got {text!r}")
-    if len(set(seeds)) != len(seeds):
-        raise ConfigError(f"{option}: {text!r} names a seed twice")
-    return seeds
-
-
-def seed_dir(out: Path, seed: int) -> Path:
-    return out / SEED_DIR.format(seed)
+from d3dwa_bullet.seed_dirs import seed_dir
 
 
 @dataclass

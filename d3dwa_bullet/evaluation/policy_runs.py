@@ -1,0 +1,130 @@
+"""Which policies an evaluation runs: every shipped training seed of each learned method.
+
+A learned method's result is its distribution over training seeds
+(docs/design.md#learning-protocol), so an evaluation drives every ``seed-<k>/`` of the
+method's policy folder (``policies/<method>/``, or ``--policy DIR``) unless
+``--policy-seeds`` names some of them. A folder without seed folders is one policy (a
+checkpoint, or one ``seed-<k>`` folder given as ``--policy``). A fixed method is one run
+with no policy.
+
+The seeds of one method must be one experiment: trained under the same config (all but
+the seed) and the same action set; a folder mixing configs is refused, naming both seeds
+and what differs.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from d3dwa_bullet.errors import CheckpointError, ConfigError
+from d3dwa_bullet.methods import FIXED, default_policy_path
+from d3dwa_bullet.seed_dirs import parse_seeds, seed_dirs, seed_of
+
+ALL = "all"
+
+
+@dataclass(frozen=True)
+class PolicyRun:
+    """One trained (or fixed) controller to evaluate."""
+
+    method: str
+    policy_seed: int | None = None
+    """The training seed (``seed-<k>``), None for a fixed method or a single policy."""
+    policy: str | None = None
+    """The policy folder to load; None for a fixed method or the method's shipped policy."""
+
+
+def _experiment(folder: Path) -> dict[str, Any]:
+    """What must agree between the seeds of one method: the config without its seeds, and
+    the action set."""
+    found: dict[str, Any] = {}
+    for name in ("config.json", "meta.json"):
+        path = folder / name
+        if not path.is_file():
+            continue
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+            raise CheckpointError(f"{path}: not readable JSON ({err})") from err
+        if name == "config.json":
+            data.pop("seed", None)
+            if isinstance(data.get("agent"), dict):
+                data["agent"] = {k: v for k, v in data["agent"].items() if k != "seed"}
+            found["config"] = data
+        else:
+            found["actions"] = data.get("actions")
+    return found
+
+
+def _differences(a: Any, b: Any, prefix: str = "") -> list[str]:
+    if isinstance(a, dict) and isinstance(b, dict):
+        out = []
+        for k in sorted(a.keys() | b.keys()):
+            out += _differences(a.get(k), b.get(k), f"{prefix}{k}.")
+        return out
+    return [] if a == b else [f"{prefix.rstrip('.')} {a!r} vs {b!r}"]
+
+
+def check_one_experiment(folder: Path, seeds: dict[int, Path]) -> None:
+    """CheckpointError unless every seed folder was trained under one config and action set."""
+    items = list(seeds.items())
+    if not items:
+        return
+    first, first_dir = items[0]
+    reference = _experiment(first_dir)
+    for k, path in items[1:]:
+        diffs = _differences(reference, _experiment(path))
+        if diffs:
+            shown = "; ".join(diffs[:3]) + ("; ..." if len(diffs) > 3 else "")
+            raise CheckpointError(
+                f"{folder}: seed-{k} was trained under another config or action set than "
+                f"seed-{first} ({shown}); the seeds of one method must be one experiment"
+            )
+
+
+def select_seeds(folder: Path, spec: str | None) -> dict[int, Path]:
+    """The seed folders of folder named by spec ('all' or None: every one; '0,2', '0-3')."""
+    shipped = seed_dirs(folder)
+    if spec is None or spec.strip() == ALL:
+        return shipped
+    wanted = parse_seeds(spec, "--policy-seeds")
+    missing = [k for k in wanted if k not in shipped]
+    if missing:
+        have = ", ".join(f"seed-{k}" for k in shipped) or "no seed folders"
+        raise ConfigError(f"--policy-seeds: {folder} has no seed-{missing[0]} (it has {have})")
+    return {k: shipped[k] for k in wanted}
+
+
+def method_runs(
+    methods: Sequence[str], policy: str | None = None, policy_seeds: str | None = None
+) -> list[PolicyRun]:
+    """The runs of each method, in method order then seed order (module docstring).
+
+    policy: ``--policy`` (one learned method only; the caller checks). policy_seeds:
+    ``--policy-seeds``; ConfigError if it names a seed some learned method's folder lacks,
+    or if no method has seed folders to choose from."""
+    runs: list[PolicyRun] = []
+    chosen = False
+    for method in methods:
+        if method in FIXED:
+            runs.append(PolicyRun(method))
+            continue
+        folder = Path(policy) if policy is not None else default_policy_path(method)
+        seeds = seed_dirs(folder)
+        if not seeds:  # one policy: a checkpoint, a seed-<k> folder, or an old shipped one
+            runs.append(PolicyRun(method, seed_of(folder) if policy is not None else None, policy))
+            continue
+        chosen = True
+        selected = select_seeds(folder, policy_seeds)
+        check_one_experiment(folder, selected)
+        runs += [PolicyRun(method, k, str(path)) for k, path in selected.items()]
+    if policy_seeds is not None and policy_seeds.strip() != ALL and not chosen:
+        raise ConfigError(
+            f"--policy-seeds {policy_seeds}: no learned method here has seed-<k> folders "
+            "to choose from"
+        )
+    return runs

@@ -1,0 +1,266 @@
+"""Results over training seeds: per-run scores, the seed-aggregated tables, and comparisons.
+
+A *run* is one independent trial of a method: for a learned method one training seed
+(``policy_seed``), whose evaluation episodes are averaged into one score per task; a fixed
+method has no training, so each of its evaluation seeds is a run. A *task* is one world
+under one noise setting. Intervals resample runs within each task (the stratified bootstrap
+of :mod:`d3dwa_bullet.evaluation.seed_stats`), so they cover the spread between training
+seeds, not only between episodes.
+
+- success: per run, the fraction of its episodes that reached the goal;
+- time: per run, the mean time to goal of its successful episodes (runs without a success
+  have none), summarised as the interquartile mean (IQM) over runs;
+- improvement: P(A > B), the chance that a run of A has a higher success score than a run
+  of B on a task (ties half), averaged over tasks (Agarwal et al., 2021).
+
+Pure functions of results rows (as :func:`~d3dwa_bullet.evaluation.results.read_results`
+returns them): no simulator, no torch.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation.seed_stats import (
+    Interval,
+    iqm_interval,
+    mean_interval,
+    probability_of_improvement,
+)
+from d3dwa_bullet.methods import LABELS
+
+Row = Mapping[str, Any]
+Run = tuple[str, int]
+"""("train", policy seed) or ("eval", evaluation seed) (module docstring)."""
+
+
+def run_of(row: Row) -> Run:
+    """The run a row belongs to."""
+    seed = row["policy_seed"]
+    return ("train", seed) if seed is not None else ("eval", row["seed"])
+
+
+def check_not_mixed(rows: Sequence[Row], where: str) -> None:
+    """ResultsError if one method has rows with a policy seed and rows without: its single
+    policy and its seeds are different experiments and cannot share one interval."""
+    kinds: dict[str, set[bool]] = defaultdict(set)
+    for r in rows:
+        kinds[r["method"]].add(r["policy_seed"] is None)
+    for method, seen in kinds.items():
+        if len(seen) > 1:
+            raise ResultsError(
+                f"{where}: method {method!r} has rows of a single policy (empty policy_seed) "
+                "and rows of training seeds; evaluate it one way per results directory"
+            )
+
+
+def _by_run(rows: Sequence[Row]) -> dict[Run, list[Row]]:
+    runs: dict[Run, list[Row]] = defaultdict(list)
+    for r in rows:
+        runs[run_of(r)].append(r)
+    return dict(sorted(runs.items()))
+
+
+def success_scores(rows: Sequence[Row]) -> list[float]:
+    """One success score per run of rows (one method on one task), in run order."""
+    return [float(np.mean([r["outcome"] == "goal" for r in rs])) for rs in _by_run(rows).values()]
+
+
+def time_scores(rows: Sequence[Row]) -> list[float]:
+    """Per run with a success, the mean time to goal of its successes, s."""
+    out = []
+    for rs in _by_run(rows).values():
+        times = [r["time_s"] for r in rs if r["outcome"] == "goal"]
+        if times:
+            out.append(float(np.mean(times)))
+    return out
+
+
+def _cells(rows: Sequence[Row]) -> dict[tuple[str, str], list[Row]]:
+    cells: dict[tuple[str, str], list[Row]] = defaultdict(list)
+    for r in rows:
+        cells[(r["method"], r["world"])].append(r)
+    return cells
+
+
+def _n_runs(rows: Sequence[Row]) -> tuple[int, int]:
+    """(training seeds, episodes) of a method's rows (0 training seeds: a fixed method)."""
+    return len({r["policy_seed"] for r in rows if r["policy_seed"] is not None}), len(rows)
+
+
+def _rate(i: Interval) -> str:
+    return f"{100 * i.value:.0f} [{100 * i.low:.0f}, {100 * i.high:.0f}]"
+
+
+def _time(i: Interval | None) -> str:
+    return "--" if i is None else f"{i.value:.1f} [{i.low:.1f}, {i.high:.1f}]"
+
+
+def _time_interval(scores: list[list[float]]) -> Interval | None:
+    scores = [s for s in scores if s]
+    return iqm_interval(scores) if scores else None
+
+
+def _runs_label(rows: Sequence[Row]) -> str:
+    seeds, episodes = _n_runs(rows)
+    if seeds:
+        return f"{seeds} training seeds, {episodes} episodes"
+    return f"fixed, {episodes} episodes"
+
+
+def seed_tables(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence[str]) -> str:
+    """Success rate and time per (method, world) over runs, with 95 % intervals, as Markdown:
+    one table of success rates (%), one of IQM times (s); an "all" column aggregates the
+    worlds (mean success over worlds, IQM of time over every run and world)."""
+    cells = _cells(rows)
+    header = "| Method | runs | " + " | ".join(worlds) + " | all |"
+    sep = "|---|---|" + "---:|" * (len(worlds) + 1)
+    success, timing = [header, sep], [header, sep]
+    for m in methods:
+        mine = [r for r in rows if r["method"] == m]
+        if not mine:
+            continue
+        s_cells, t_cells, s_all, t_all = [], [], [], []
+        for w in worlds:
+            rs = cells.get((m, w), [])
+            if not rs:
+                s_cells.append("")
+                t_cells.append("")
+                continue
+            s, t = success_scores(rs), time_scores(rs)
+            s_all.append(s)
+            t_all.append(t)
+            s_cells.append(_rate(mean_interval([s])))
+            t_cells.append(_time(_time_interval([t])))
+        label = f"| {LABELS.get(m, m)} | {_runs_label(mine)} | "
+        success.append(label + " | ".join(s_cells) + f" | {_rate(mean_interval(s_all))} |")
+        timing.append(label + " | ".join(t_cells) + f" | {_time(_time_interval(t_all))} |")
+    return (
+        "### Success rate [%], 95 % interval over runs\n\n"
+        + "\n".join(success)
+        + "\n\n### Time to goal, IQM over runs [s], 95 % interval\n\n"
+        + "\n".join(timing)
+        + "\n"
+    )
+
+
+def per_seed_table(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence[str]) -> str:
+    """One row per (method, training seed): successes/episodes and mean time per world.
+    Fixed methods get one row over all their evaluation seeds."""
+    cells = _cells(rows)
+    lines = [
+        "| Method | training seed | " + " | ".join(worlds) + " | success |",
+        "|---|---:|" + "---:|" * (len(worlds) + 1),
+    ]
+    for m in methods:
+        mine = [r for r in rows if r["method"] == m]
+        seeds = sorted({r["policy_seed"] for r in mine}, key=lambda k: (k is not None, k))
+        for k in seeds:
+            parts, n_ok, n_all = [], 0, 0
+            for w in worlds:
+                rs = [r for r in cells.get((m, w), []) if r["policy_seed"] == k]
+                ok = [r["time_s"] for r in rs if r["outcome"] == "goal"]
+                n_ok, n_all = n_ok + len(ok), n_all + len(rs)
+                if not rs:
+                    parts.append("")
+                elif ok:
+                    parts.append(f"{len(ok)}/{len(rs)}, {np.mean(ok):.1f} s")
+                else:
+                    n_c = sum(r["outcome"] == "collision" for r in rs)
+                    parts.append(f"0/{len(rs)} ({n_c} C, {len(rs) - n_c} T)")
+            rate = f"{100 * n_ok / n_all:.0f} %" if n_all else ""
+            seed = "--" if k is None else str(k)
+            lines.append(f"| {LABELS.get(m, m)} | {seed} | " + " | ".join(parts) + f" | {rate} |")
+    return "\n".join(lines) + "\n"
+
+
+def improvement(
+    rows: Sequence[Row], a: str, b: str, groups_of: Callable[[Row], Sequence[str]]
+) -> list[dict[str, Any]]:
+    """P(a > b) on success per group of tasks, and over every task the two methods share.
+
+    groups_of names the groups a row's task belongs to (e.g. its layout group under its
+    noise, and all layouts under that noise). Returns records {"group", "tasks", "runs_a",
+    "runs_b", "p", "low", "high"}: the groups in first-seen order, then "all". ResultsError
+    if the methods share no task."""
+    tasks: dict[tuple[str, str], dict[str, list[Row]]] = defaultdict(lambda: defaultdict(list))
+    member: dict[tuple[str, str], Sequence[str]] = {}
+    for r in rows:
+        if r["method"] in (a, b):
+            task = (r["world"], r["noise"])
+            tasks[task][r["method"]].append(r)
+            member.setdefault(task, groups_of(r))
+    shared = [t for t, per in tasks.items() if a in per and b in per]
+    if not shared:
+        raise ResultsError(f"methods {a!r} and {b!r} share no (world, noise) in these results")
+    names = list(dict.fromkeys(g for t in shared for g in member[t] if g != "all"))
+    records = []
+    for name in [*names, "all"]:
+        members = shared if name == "all" else [t for t in shared if name in member[t]]
+        xa = [success_scores(tasks[t][a]) for t in members]
+        xb = [success_scores(tasks[t][b]) for t in members]
+        p = probability_of_improvement(xa, xb)
+        records.append({
+            "group": name, "tasks": len(members),
+            "runs_a": max(len(x) for x in xa), "runs_b": max(len(x) for x in xb),
+            "p": p.value, "low": p.low, "high": p.high,
+        })  # fmt: skip
+    return records
+
+
+def improvement_table(records: Sequence[Mapping[str, Any]], a: str, b: str) -> str:
+    """The records of :func:`improvement` as Markdown."""
+    la, lb = LABELS.get(a, a), LABELS.get(b, b)
+    lines = [
+        f"| tasks | n | runs {la} | runs {lb} | P({la} > {lb}) | 95 % interval |",
+        "|---|---:|---:|---:|---:|---|",
+    ]
+    for r in records:
+        lines.append(
+            f"| {r['group']} | {r['tasks']} | {r['runs_a']} | {r['runs_b']} | {r['p']:.2f} | "
+            f"[{r['low']:.2f}, {r['high']:.2f}] |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def condition_table(
+    rows: Sequence[Row],
+    methods: Sequence[str],
+    columns: Sequence[str],
+    column_of: Callable[[Row], str | None],
+    layouts: Sequence[str],
+    layout_of: Callable[[Row], str],
+) -> str:
+    """Success over runs per (layout group, method) and column (e.g. a noise profile): the
+    mean over the group's worlds with its stratified interval, as Markdown. Rows whose
+    column_of is None are left out; an "all layouts" group follows when there are several."""
+    groups = [*layouts, "all layouts"] if len(layouts) > 1 else list(layouts)
+    cells: dict[tuple[str, str, str], dict[str, list[Row]]] = defaultdict(lambda: defaultdict(list))
+    for r in rows:
+        column = column_of(r)
+        if column is None:
+            continue
+        for g in (layout_of(r), "all layouts"):
+            cells[(g, r["method"], column)][r["world"]].append(r)
+    lines = [
+        "| Method | layouts | " + " | ".join(columns) + " |",
+        "|---|---|" + "---:|" * len(columns),
+    ]
+    for g in groups:
+        for m in methods:
+            parts = []
+            for c in columns:
+                worlds = cells.get((g, m, c))
+                parts.append(
+                    _rate(mean_interval([success_scores(rs) for rs in worlds.values()]))
+                    if worlds
+                    else ""
+                )
+            if any(parts):
+                lines.append(f"| {LABELS.get(m, m)} | {g} | " + " | ".join(parts) + " |")
+    return "\n".join(lines) + "\n"
