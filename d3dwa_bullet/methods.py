@@ -15,8 +15,8 @@ import numpy as np
 from d3dwa_bullet.errors import CheckpointError, UnknownNameError
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
 from d3dwa_bullet.planning.planner import PlannerAction
-from d3dwa_bullet.seed_dirs import seed_dirs
 from d3dwa_bullet.resources import policies_dir
+from d3dwa_bullet.seed_dirs import seed_dirs
 
 FIXED: dict[str, PlannerAction] = {
     "dwa1": PlannerAction(1.0, 1.0, 2.0, 4.0),
