@@ -73,9 +73,7 @@ class Job:
 
     @property
     def log_name(self) -> str:
-        trained = "" if self.policy_seed is None else f"__p{self.policy_seed}"
-        name = f"{self.world.name}__{self.method}{trained}__{self.noise}__s{self.seed}"
-        return _UNSAFE.sub("_", name) + ".npz"
+        return log_name(self.key)
 
     def row(self, result: EpisodeResult) -> dict[str, Any]:
         """The CSV row of this job's result."""
@@ -84,6 +82,13 @@ class Job:
             | {"policy_seed": policy_seed_cell(self.policy_seed)}
             | dict(self.columns)
         )
+
+
+def log_name(key: Key) -> str:
+    """The file name, in a results directory's logs/, of the episode with this key."""
+    world, method, policy_seed, seed, noise = key
+    trained = "" if policy_seed is None else f"__p{policy_seed}"
+    return _UNSAFE.sub("_", f"{world}__{method}{trained}__{noise}__s{seed}") + ".npz"
 
 
 def make_noise(profile: str, seed: int):

@@ -1,0 +1,100 @@
+"""How an episode failed, read from its per-step log: one primary mode and every symptom.
+
+Pure numpy over the arrays :func:`~d3dwa_bullet.evaluation.results.save_log` writes (true
+and estimated pose, commands, chosen action, the planner's fallback flag), so a sweep's
+failures can be sorted into kinds without rerunning anything. The symptoms, each with the
+physical reason for its threshold (fixed here, before any sweep was classified):
+
+===============  ==========================================================================
+symptom          holds when
+===============  ==========================================================================
+drift            the estimate strays more than DRIFT_M (0.25 m, about the robot's half
+                 width: enough to misjudge which gap the body fits) from the true pose
+fallback storm   the planner finds no admissible motion on more than FALLBACK_SHARE (20 %)
+                 of steps: the scan shows obstacles too close on every candidate arc, e.g.
+                 spurious short returns
+stall            the robot moves slower than STALL_MPS (2 cm/s) over more than STALL_SHARE
+                 (30 %) of the episode
+oscillation      the chosen action changes on more than SWITCH_SHARE (30 %) of steps, or the
+                 turn command changes sign (|w| > 0.1 rad/s) more than FLIP_HZ (0.5) times
+                 a second: the policy or the planner dithers between choices
+===============  ==========================================================================
+
+The primary mode of a failure is its outcome if it collided, else the first symptom in the
+order above, else ``slow`` (moving, no symptom, but not arriving in time). Latency cannot
+be read from a log; its share shows only as the profile the episode ran under.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+CONTROL_DT = 0.1
+"""Control period of the logs, s."""
+DRIFT_M = 0.25
+FALLBACK_SHARE = 0.2
+STALL_MPS = 0.02
+STALL_SHARE = 0.3
+SWITCH_SHARE = 0.3
+FLIP_HZ = 0.5
+TURNING = 0.1
+"""|w| above which a turn command counts for sign flips, rad/s."""
+SYMPTOMS = ("drift", "fallback storm", "stall", "oscillation")
+MODES = ("collision", *SYMPTOMS, "slow")
+"""Primary modes, in the order they are assigned."""
+
+
+def symptoms(log: Mapping[str, Any]) -> dict[str, float]:
+    """The measured quantity behind each symptom (not yet compared with a threshold):
+    drift_m, fallback_share, stall_share, switch_share, flip_hz."""
+    n = len(log["t"])
+    if n == 0:
+        return {"drift_m": 0.0, "fallback_share": 0.0, "stall_share": 0.0,
+                "switch_share": 0.0, "flip_hz": 0.0}  # fmt: skip
+    true_x, true_y = np.asarray(log["true_x"]), np.asarray(log["true_y"])
+    error = np.hypot(np.asarray(log["est_x"]) - true_x[:n], np.asarray(log["est_y"]) - true_y[:n])
+    speed = np.hypot(np.diff(true_x), np.diff(true_y)) / CONTROL_DT
+    action = np.asarray(log["action"])
+    w = np.asarray(log["w_cmd"])
+    turning = np.sign(w[np.abs(w) > TURNING])
+    flips = int(np.count_nonzero(np.diff(turning))) if turning.size > 1 else 0
+    return {
+        "drift_m": float(error.max()),
+        "fallback_share": float(np.mean(np.asarray(log["fallback"]) > 0)),
+        "stall_share": float(np.mean(speed < STALL_MPS)) if speed.size else 0.0,
+        "switch_share": float(np.mean(action[1:] != action[:-1])) if n > 1 else 0.0,
+        "flip_hz": flips / (n * CONTROL_DT),
+    }
+
+
+def present(measured: Mapping[str, float]) -> list[str]:
+    """The symptoms whose quantity crosses its threshold, in SYMPTOMS order."""
+    found = []
+    if measured["drift_m"] > DRIFT_M:
+        found.append("drift")
+    if measured["fallback_share"] > FALLBACK_SHARE:
+        found.append("fallback storm")
+    if measured["stall_share"] > STALL_SHARE:
+        found.append("stall")
+    if measured["switch_share"] > SWITCH_SHARE or measured["flip_hz"] > FLIP_HZ:
+        found.append("oscillation")
+    return found
+
+
+def primary_mode(outcome: str, found: list[str]) -> str:
+    """The one mode a failure is counted under (module docstring)."""
+    if outcome == "collision":
+        return "collision"
+    return found[0] if found else "slow"
+
+
+def classify(log: Mapping[str, Any]) -> dict[str, Any]:
+    """{"outcome", "mode", "symptoms": [...], **measured} of one episode's log."""
+    outcome = str(log["outcome"])
+    measured = symptoms(log)
+    found = present(measured)
+    mode = "goal" if outcome == "goal" else primary_mode(outcome, found)
+    return {"outcome": outcome, "mode": mode, "symptoms": found, **measured}

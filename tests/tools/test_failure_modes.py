@@ -1,0 +1,48 @@
+"""The failure-mode table of a results directory, from its rows and logs."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from d3dwa_bullet.evaluation.jobs import log_name
+from d3dwa_bullet.evaluation.results import CSV_FIELDS, appending_rows, row_key
+from tests.evaluation.test_failures import log
+from tools.experiments.failure_modes import failure_records, main
+
+
+def results_dir(tmp_path):
+    rows = [
+        dict(world="W", method="d3dwa", policy_seed=0, seed=0, noise="harsh", outcome="timeout"),
+        dict(world="W", method="d3dwa", policy_seed=1, seed=0, noise="harsh", outcome="goal"),
+        dict(world="W", method="dwa3", policy_seed="", seed=0, noise="harsh", outcome="collision"),
+    ]
+    (tmp_path / "logs").mkdir()
+    with appending_rows(tmp_path, CSV_FIELDS) as append:
+        for r in rows:
+            r |= dict(time_s=1.0, tl_m=0.0, pd_rad=0.0, min_clearance_m=0.1, steps=10)
+            append(r)
+            key = row_key(r | {"policy_seed": None if r["policy_seed"] == "" else r["policy_seed"]})
+            np.savez(tmp_path / "logs" / log_name(key), **log(speed=0.0, outcome=r["outcome"]))
+    return tmp_path
+
+
+def test_failures_are_counted_by_mode_per_noise_and_method(tmp_path, capsys):
+    out = results_dir(tmp_path)
+    records = {r["method"]: r for r in failure_records(out)}
+    assert records["d3dwa"]["episodes"] == 2 and records["d3dwa"]["failures"] == 1
+    assert records["d3dwa"]["modes"]["stall"] == 1 and records["d3dwa"]["symptoms"]["stall"] == 1
+    assert records["dwa3"]["modes"]["collision"] == 1
+    assert main([str(out), "--json", "--figure", str(tmp_path / "modes.png")]) == 0
+    assert json.loads(capsys.readouterr().out)[0]["noise"] == "harsh"
+    assert (tmp_path / "modes.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_a_missing_log_is_named(tmp_path, capsys):
+    out = results_dir(tmp_path)
+    next((out / "logs").glob("W__d3dwa__p0*")).unlink()
+    assert main([str(out)]) == 2
+    assert (
+        "W__d3dwa__p0__harsh__s0.npz: log of a failed episode is missing" in capsys.readouterr().err
+    )

@@ -1,0 +1,138 @@
+"""Failure modes of a sweep (or eval) directory: how each method fails under each noise.
+
+Reads results.csv and every failed episode's per-step log, classifies it with
+:mod:`d3dwa_bullet.evaluation.failures` (primary mode and symptoms), and prints one row per
+(noise, method): episodes, failures, the count of each primary mode, and how many failures
+show each symptom at all. ``--figure PNG`` draws the primary modes as stacked bars per
+noise profile; ``--json`` prints the records.
+
+    python -m tools.experiments.failure_modes /work/results/profiles-seeds --figure modes.png
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections import Counter, defaultdict
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from d3dwa_bullet.errors import D3DWAError, ResultsError
+from d3dwa_bullet.evaluation.failures import MODES, SYMPTOMS, classify
+from d3dwa_bullet.evaluation.jobs import log_name
+from d3dwa_bullet.evaluation.results import load_log, read_meta, read_results, row_key
+from d3dwa_bullet.methods import LABELS
+
+
+def failure_records(out: Path) -> list[dict[str, Any]]:
+    """One record per (noise, method): episodes, failures, modes, symptoms."""
+    if not (out / "results.csv").is_file():
+        raise ResultsError(f"{out}: no results.csv")
+    keys = {tuple(k) for k in read_meta(out).get("jobs", [])}
+    rows = [r for r in read_results(out) if not keys or row_key(r) in keys]
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = defaultdict(list)
+    for r in rows:
+        groups[(r["noise"], r["method"])].append(r)
+    records = []
+    for (noise, method), rs in groups.items():
+        modes: Counter[str] = Counter()
+        seen: Counter[str] = Counter()
+        for r in rs:
+            if r["outcome"] == "goal":
+                continue
+            path = out / "logs" / log_name(row_key(r))
+            if not path.is_file():
+                raise ResultsError(f"{path}: log of a failed episode is missing")
+            found = classify(load_log(path))
+            modes[found["mode"]] += 1
+            seen.update(found["symptoms"])
+        records.append({
+            "noise": noise, "method": method, "episodes": len(rs),
+            "failures": sum(modes.values()),
+            "modes": {m: modes[m] for m in MODES}, "symptoms": {s: seen[s] for s in SYMPTOMS},
+        })  # fmt: skip
+    return records
+
+
+def markdown(records: Sequence[dict[str, Any]], noises: Sequence[str]) -> str:
+    lines = [
+        "| noise | method | episodes | failures | "
+        + " | ".join(MODES)
+        + " | "
+        + " | ".join(f"any {s}" for s in SYMPTOMS)
+        + " |",
+        "|---|---|" + "---:|" * (2 + len(MODES) + len(SYMPTOMS)),
+    ]
+    for noise in noises:
+        for r in (r for r in records if r["noise"] == noise):
+            cells = [str(r["episodes"]), str(r["failures"])]
+            cells += [str(r["modes"][m] or "") for m in MODES]
+            cells += [str(r["symptoms"][s] or "") for s in SYMPTOMS]
+            label = LABELS.get(r["method"], r["method"])
+            lines.append(f"| {noise} | {label} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def figure(records: Sequence[dict[str, Any]], noises: Sequence[str], path: Path) -> Path:
+    # start-up cost: matplotlib only when a figure is asked for
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    methods = list(dict.fromkeys(r["method"] for r in records))
+    fig, axes = plt.subplots(1, len(noises), figsize=(3.2 * len(noises), 3.8), sharey=True)
+    axes = [axes] if len(noises) == 1 else list(axes)
+    colours = plt.get_cmap("tab10").colors
+    for ax, noise in zip(axes, noises, strict=True):
+        by_method = {r["method"]: r for r in records if r["noise"] == noise}
+        bottoms = [0.0] * len(methods)
+        for i, mode in enumerate(MODES):
+            share = [
+                100 * by_method[m]["modes"][mode] / by_method[m]["episodes"]
+                if m in by_method else 0.0
+                for m in methods
+            ]  # fmt: skip
+            ax.bar(range(len(methods)), share, bottom=bottoms, color=colours[i],
+                   label=mode if ax is axes[0] else None)  # fmt: skip
+            bottoms = [b + s for b, s in zip(bottoms, share, strict=True)]
+        ax.set_title(f"noise: {noise}")
+        ax.set_xticks(range(len(methods)))
+        ax.set_xticklabels([LABELS.get(m, m) for m in methods], rotation=60, ha="right",
+                           fontsize=7)  # fmt: skip
+    axes[0].set_ylabel("episodes that failed, by primary mode [%]")
+    fig.legend(loc="upper center", ncol=len(MODES), fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0, 1, 0.92))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("dir", help="a results directory of `d3dwa sweep` or `d3dwa eval`")
+    ap.add_argument("--figure", help="write the stacked-bar figure to this PNG")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    try:
+        records = failure_records(Path(args.dir))
+    except D3DWAError as err:
+        print(f"failure_modes: error: {err}", file=sys.stderr)
+        return 2
+    noises = list(dict.fromkeys(r["noise"] for r in records))
+    if args.figure:
+        figure(records, noises, Path(args.figure))
+    if args.json:
+        print(json.dumps(records, indent=1))
+    else:
+        print(markdown(records, noises), end="")
+        if args.figure:
+            print(f"figure: {args.figure}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
