@@ -16,6 +16,13 @@ A profile file (``randomization/profiles/<name>.yaml``)::
         friction_scale_range: [0.8, 1.2]     # tuple fields: a fixed list, or a choice of lists
       ...
 
+Optional entries: ``params.lidar.dropout_sector_scale`` (K factors on dropout_prob per
+sector) and ``params.lidar.dropout_sector_kinds`` (K rows of NaN / +inf / -inf / 0.0 /
+out-of-range proportions) take a fixed table or ``null`` and may be left out (off). A
+top-level ``sensor:`` mapping is informational (what ``d3dwa calibrate`` measured: beam
+count, field of view, scan rate); it is checked to be a mapping and otherwise ignored,
+because the simulated lidar's geometry is not part of a profile.
+
 Distributions: a number (fixed), ``{uniform: [lo, hi]}``, ``{normal: [mean, std]}`` with an
 optional ``clip: [lo, hi]`` (always also clipped to the field's valid domain),
 ``{choice: [...]}`` with optional ``weights``. Integer fields accept numbers and choices only.
@@ -40,6 +47,7 @@ from d3dwa_bullet.sim.noise_config import (
     CONFIG_GROUPS,
     INT_PARAMS,
     PARAM_DOMAINS,
+    TABLE_PARAMS,
     TUPLE_PARAMS,
     NoiseConfig,
     check_param,
@@ -50,6 +58,8 @@ PROFILE_VERSION = 1
 TRIAL_SAMPLES = 16
 #: Pairs (group, lower field, upper field) whose sampled values must stay ordered.
 ORDERED_PAIRS = (("lidar", "spurious_min", "spurious_max"),)
+#: Top-level keys a profile may carry for the reader only (checked to be mappings, ignored).
+INFORMATIONAL_KEYS = ("sensor",)
 
 
 @dataclass(frozen=True)
@@ -176,14 +186,18 @@ def profile_from_dict(data: Any, source: str) -> Profile:
     if not isinstance(data, Mapping):
         raise ProfileError(f"{source}: top level must be a mapping, got {type(data).__name__}")
     expected = {"name", "version", "description", "params"}
-    unknown = set(data) - expected
+    unknown = set(data) - expected - set(INFORMATIONAL_KEYS)
     if unknown:
         raise ProfileError(
-            f"{source}: unknown key(s) {sorted(unknown)}; expected {sorted(expected)}"
+            f"{source}: unknown key(s) {sorted(unknown)}; expected {sorted(expected)} "
+            f"(optional: {', '.join(INFORMATIONAL_KEYS)})"
         )
     for key in sorted(expected):
         if key not in data:
             raise ProfileError(f"{source}: missing key '{key}'")
+    for key in INFORMATIONAL_KEYS:
+        if key in data and not isinstance(data[key], Mapping):
+            raise ProfileError(f"{source}: '{key}' must be a mapping, got {data[key]!r}")
     name, version, description = data["name"], data["version"], data["description"]
     if not isinstance(name, str) or not name:
         raise ProfileError(f"{source}: 'name' must be a non-empty string, got {name!r}")
@@ -218,6 +232,9 @@ def profile_from_dict(data: Any, source: str) -> Profile:
         params[group] = {}
         for field_name in names:
             where = f"{source}: parameter 'params.{group}.{field_name}'"
+            if (group, field_name) in TABLE_PARAMS:
+                params[group][field_name] = _parse_table(group, field_name, spec, where)
+                continue
             if field_name not in spec:
                 raise ProfileError(f"{where} is missing")
             params[group][field_name] = _parse(group, field_name, spec[field_name], where)
@@ -262,6 +279,20 @@ def _check_value(group: str, name: str, value: Any, where: str) -> Any:
     except ConfigError as err:
         raise ProfileError(f"{where}: value {value!r} is out of range ({err})") from err
     return value
+
+
+def _parse_table(group: str, name: str, spec: Mapping[str, Any], where: str) -> Fixed:
+    """An optional per-sector table: absent or null (off), or a fixed list (no distributions)."""
+    value = spec.get(name)
+    if value is None:
+        return Fixed(None)
+    if not isinstance(value, list):
+        raise ProfileError(f"{where}: must be a fixed list (a table) or null, got {value!r}")
+    try:
+        config = CONFIG_GROUPS[group](**{name: value})  # the dataclass knows the table's rules
+    except ConfigError as err:
+        raise ProfileError(f"{where}: value {value!r} is invalid ({err})") from err
+    return Fixed(getattr(config, name))
 
 
 def _parse(group: str, name: str, spec: Any, where: str) -> Distribution:

@@ -26,7 +26,13 @@ import numpy as np
 
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.geometry import wrap_angle_modular
-from d3dwa_bullet.sim.noise_config import SLIP_LEVEL_MAX, SLIP_STEP_MAX, NoiseConfig
+from d3dwa_bullet.sim.noise_config import (
+    OUT_OF_RANGE_FACTOR,
+    SLIP_LEVEL_MAX,
+    SLIP_STEP_MAX,
+    LidarNoiseConfig,
+    NoiseConfig,
+)
 
 
 @dataclass(frozen=True)
@@ -53,6 +59,44 @@ def encoder_wheel_speed(omega_joint: np.ndarray | float, slip: np.ndarray | floa
     odometry overestimates motion. ``s`` is at most 0.9, so this never divides by zero.
     """
     return np.asarray(omega_joint, dtype=np.float64) / (1.0 - np.asarray(slip, dtype=np.float64))
+
+
+def beam_sector_index(n_beams: int, n_sectors: int) -> np.ndarray:
+    """(n_beams,) int: beam i's sector, ``min(i * K // (N - 1), K - 1)`` (K equal slices of
+    the scan, right to left; both end beams included, as the lidar casts them)."""
+    i = np.arange(n_beams)
+    return np.minimum(i * n_sectors // max(n_beams - 1, 1), n_sectors - 1)
+
+
+def _sector_dropout(
+    out: np.ndarray, lidar: LidarNoiseConfig, range_max: float, rng: np.random.Generator
+) -> np.ndarray:
+    """Dropout with per-sector probabilities and kinds; draws two values per beam, in the
+    same order as the uniform dropout (which is used when neither table is set)."""
+    n = out.size
+    k = len(lidar.dropout_sector_scale or lidar.dropout_sector_kinds or ())
+    sector = beam_sector_index(n, k)
+    prob = np.full(n, lidar.dropout_prob)
+    if lidar.dropout_sector_scale is not None:
+        scale = np.asarray(lidar.dropout_sector_scale)
+        prob = np.minimum(1.0, lidar.dropout_prob * scale[sector])
+    drop = rng.random(n) < prob
+    u = rng.random(n)
+    if lidar.dropout_sector_kinds is None:
+        kinds = np.array(
+            [lidar.dropout_kinds[0], lidar.dropout_kinds[1], 0.0, lidar.dropout_kinds[2], 0.0]
+        )
+        table = np.broadcast_to(kinds, (k, kinds.size))
+    else:
+        table = np.asarray(lidar.dropout_sector_kinds)
+    cum = np.cumsum(table, axis=1)[sector]  # (n, 5)
+    kind = (u[:, None] >= cum).sum(axis=1)
+    # As in the uniform case: u at or above a row's float sum goes to its last weighted kind.
+    last = (table > 0).shape[1] - 1 - np.argmax((table > 0)[:, ::-1], axis=1)
+    kind = np.minimum(kind, last[sector])
+    values = np.array([np.nan, np.inf, -np.inf, 0.0, OUT_OF_RANGE_FACTOR * range_max])
+    out[drop] = values[kind[drop]]
+    return out
 
 
 #: Names of the independent random streams, in spawn order. Append only: reordering would
@@ -154,8 +198,10 @@ class NoiseModel:
         In order: Gaussian noise on valid returns (finite, > 0, in [range_min, range_max]),
         clipped back into [range_min, range_max] so noise alone never invalidates a beam;
         phantom returns uniform in [spurious_min, spurious_max] on any beam; dropout to
-        NaN / +inf / 0.0 in ``dropout_kinds`` proportions. Each part draws a fixed number
-        of values per beam from its own stream, whatever the ranges are.
+        NaN / +inf / 0.0 in ``dropout_kinds`` proportions (with the optional per-sector
+        tables, per-sector probabilities and NaN / +inf / -inf / 0.0 / out-of-range kinds).
+        Each part draws a fixed number of values per beam from its own stream, whatever the
+        ranges are.
         """
         out = np.array(ranges, dtype=np.float64, copy=True)
         if out.ndim != 1:
@@ -172,7 +218,11 @@ class NoiseModel:
             hit = rng.random(n) < lidar.spurious_prob
             value = rng.uniform(lidar.spurious_min, lidar.spurious_max, size=n)
             out[hit] = value[hit]
-        if lidar.dropout_prob > 0:
+        if lidar.dropout_prob > 0 and (
+            lidar.dropout_sector_scale is not None or lidar.dropout_sector_kinds is not None
+        ):
+            out = _sector_dropout(out, lidar, range_max, self.rngs["lidar_dropout"])
+        elif lidar.dropout_prob > 0:
             rng = self.rngs["lidar_dropout"]
             drop = rng.random(n) < lidar.dropout_prob
             kind = np.searchsorted(np.cumsum(lidar.dropout_kinds), rng.random(n), side="right")

@@ -24,6 +24,11 @@ SLIP_LEVEL_MAX = 0.5
 SLIP_STEP_MAX = 0.9
 #: Tolerance on the sum of the dropout kind proportions.
 KINDS_SUM_TOL = 1e-6
+#: What a dropped beam reads, per kind of ``LidarNoiseConfig.dropout_sector_kinds``.
+SECTOR_DROPOUT_KINDS = ("nan", "pos_inf", "neg_inf", "zero", "out_of_range")
+#: An ``out_of_range`` dropout reads this multiple of range_max: finite, beyond the limit, as
+#: drivers that report their raw maximum do.
+OUT_OF_RANGE_FACTOR = 2.0
 
 #: Valid domain of every scalar parameter, ``group -> field -> (lo, hi)`` (inclusive).
 #: The dataclasses below and the randomisation profiles both check against it.
@@ -66,6 +71,9 @@ TUPLE_PARAMS: dict[str, dict[str, int]] = {
     "lidar": {"dropout_kinds": 3},
     "physics": {"friction_scale_range": 2, "mass_scale_range": 2, "torque_scale_range": 2},
 }
+#: Optional per-sector tables (default None: off). Profiles may omit them, and ``to_dict``
+#: leaves them out while they are None, so configs without them serialise as before.
+TABLE_PARAMS = {("lidar", "dropout_sector_scale"), ("lidar", "dropout_sector_kinds")}
 
 
 def check_param(group: str, name: str, value: Any) -> None:
@@ -133,9 +141,19 @@ class LidarNoiseConfig:
     """Lower end of the uniform phantom range, m."""
     spurious_max: float = 0.5
     """Upper end of the uniform phantom range, m."""
+    dropout_sector_scale: tuple[float, ...] | None = None
+    """Optional (K,) factors on ``dropout_prob`` per angular sector: beam i of N falls in
+    sector ``min(i * K // (N - 1), K - 1)``, K equal slices of the scan right to left (for the
+    simulated 240 deg lidar, the observation's sectors). A sector's probability is
+    ``min(1, dropout_prob * scale)``. None: every beam has ``dropout_prob``."""
+    dropout_sector_kinds: tuple[tuple[float, ...], ...] | None = None
+    """Optional (K, 5) proportions per sector of (NaN, +inf, -inf, 0.0, out of range) for
+    dropped beams, each row summing to 1 (``SECTOR_DROPOUT_KINDS``; out of range reads
+    ``OUT_OF_RANGE_FACTOR * range_max``). When set it replaces ``dropout_kinds``."""
 
     def __post_init__(self) -> None:
         _check_all(self, "lidar")
+        self._check_tables()
         kinds = _as_float_tuple("lidar", "dropout_kinds", self.dropout_kinds, 3)
         if any(k < 0 or k > 1 for k in kinds) or abs(sum(kinds) - 1.0) > KINDS_SUM_TOL:
             raise ConfigError(
@@ -147,6 +165,49 @@ class LidarNoiseConfig:
                 f"lidar.spurious_min = {self.spurious_min!r} must be <= "
                 f"lidar.spurious_max = {self.spurious_max!r}"
             )
+
+    def _check_tables(self) -> None:
+        scale, kinds = self.dropout_sector_scale, self.dropout_sector_kinds
+        if scale is not None:
+            try:
+                values = tuple(float(v) for v in scale)
+            except (TypeError, ValueError) as err:
+                raise ConfigError(
+                    f"lidar.dropout_sector_scale must be a list of numbers, got {scale!r}"
+                ) from err
+            if not values or not all(math.isfinite(v) and v >= 0 for v in values):
+                raise ConfigError(
+                    "lidar.dropout_sector_scale must be a non-empty list of finite numbers "
+                    f">= 0, got {scale!r}"
+                )
+            object.__setattr__(self, "dropout_sector_scale", values)
+        if kinds is not None:
+            n = len(SECTOR_DROPOUT_KINDS)
+            try:
+                rows = tuple(tuple(float(v) for v in row) for row in kinds)
+            except (TypeError, ValueError) as err:
+                raise ConfigError(
+                    f"lidar.dropout_sector_kinds must be a list of rows of {n} numbers, "
+                    f"got {kinds!r}"
+                ) from err
+            for k, row in enumerate(rows):
+                if (
+                    len(row) != n
+                    or any(not math.isfinite(v) or v < 0 or v > 1 for v in row)
+                    or abs(sum(row) - 1.0) > KINDS_SUM_TOL
+                ):
+                    raise ConfigError(
+                        f"lidar.dropout_sector_kinds[{k}] must be {n} proportions in [0, 1] "
+                        f"summing to 1 ({', '.join(SECTOR_DROPOUT_KINDS)}), got {row!r}"
+                    )
+            if not rows:
+                raise ConfigError("lidar.dropout_sector_kinds must have at least one row")
+            if scale is not None and len(rows) != len(self.dropout_sector_scale or ()):
+                raise ConfigError(
+                    f"lidar.dropout_sector_kinds has {len(rows)} rows but "
+                    f"lidar.dropout_sector_scale has {len(scale)} sectors"
+                )
+            object.__setattr__(self, "dropout_sector_kinds", rows)
 
     @property
     def enabled(self) -> bool:
@@ -296,6 +357,12 @@ class NoiseConfig:
         for group, tuples in TUPLE_PARAMS.items():
             for name in tuples:
                 out[group][name] = list(out[group][name])
+        for group, name in sorted(TABLE_PARAMS):
+            table = out[group][name]
+            if table is None:
+                del out[group][name]
+            else:
+                out[group][name] = [list(r) if isinstance(r, tuple) else r for r in table]
         return out
 
     @classmethod
