@@ -23,6 +23,7 @@ from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.failures import MODES, SYMPTOMS, classify
 from d3dwa_bullet.evaluation.jobs import log_name
 from d3dwa_bullet.evaluation.results import load_log, read_meta, read_results, row_key
+from d3dwa_bullet.evaluation.sweep import PROFILES
 from d3dwa_bullet.methods import LABELS
 
 
@@ -122,7 +123,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except D3DWAError as err:
         print(f"failure_modes: error: {err}", file=sys.stderr)
         return 2
-    noises = list(dict.fromkeys(r["noise"] for r in records))
+    found = list(dict.fromkeys(r["noise"] for r in records))
+    noises = sorted(found, key=lambda n: PROFILES.index(n) if n in PROFILES else len(PROFILES))
     if args.figure:
         figure(records, noises, Path(args.figure))
     if args.json:

@@ -1,0 +1,79 @@
+"""The shipped training seeds: one row per method from every ``policies/<method>/seed-<k>/``.
+
+Reads each seed's ``summary.json`` (what its training run measured) and prints a Markdown
+table (or ``--json``): seeds, env steps, the step ``keep: best`` kept (per seed), its
+validation success on the config's eval_worlds, and the wall time per seed. Nothing here
+is typed in; the README's policy table is this command's output.
+
+    python -m tools.experiments.shipped_seeds
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from d3dwa_bullet.methods import LEARNED
+from d3dwa_bullet.resources import policies_dir
+from d3dwa_bullet.seed_dirs import seed_dirs
+
+
+def seed_records(folder: Path) -> list[dict[str, Any]]:
+    """Per method with seed folders: its seeds and their training figures."""
+    out = []
+    for method in LEARNED:
+        seeds = seed_dirs(folder / method)
+        if not seeds:
+            continue
+        rows = []
+        for k, path in seeds.items():
+            summary = json.loads((path / "summary.json").read_text())
+            best = summary.get("best_eval") or {}
+            rows.append({
+                "seed": k, "env_steps": summary["env_steps"], "kept_step": best.get("step"),
+                "validation_success": best.get("success_rate"),
+                "wall_min": summary["wall_time_s"] / 60.0,
+            })  # fmt: skip
+        out.append({"method": method, "seeds": rows})
+    return out
+
+
+def markdown(records: Sequence[dict[str, Any]]) -> str:
+    lines = [
+        "| policy | seeds | env steps | step kept (per seed) | validation success (per seed) "
+        "| wall per seed |",
+        "|---|---:|---:|---|---|---|",
+    ]
+    for r in records:
+        s = r["seeds"]
+        steps = {x["env_steps"] for x in s}
+        kept = ", ".join(f"{x['kept_step'] // 1000}k" if x["kept_step"] else "final" for x in s)
+        val = ", ".join(
+            f"{x['validation_success']:.2f}" if x["validation_success"] is not None else "--"
+            for x in s
+        )
+        walls = [x["wall_min"] for x in s]
+        lines.append(
+            f"| `{r['method']}` | {', '.join(str(x['seed']) for x in s)} | "
+            f"{'/'.join(f'{n // 1000}k' for n in sorted(steps))} | {kept} | {val} | "
+            f"{min(walls):.1f}-{max(walls):.1f} min |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--policies", help="policies folder (default: the shipped one)")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    records = seed_records(Path(args.policies) if args.policies else policies_dir())
+    print(json.dumps(records, indent=1) if args.json else markdown(records), end="")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
