@@ -98,3 +98,18 @@ def test_compare_refuses_bad_methods(evaluated, capsys):
     assert "--methods needs two different methods A,B" in capsys.readouterr().err
     assert main(["compare", str(evaluated), "--methods", "d3dwa,nope"]) == 2
     assert "unknown method 'nope'" in capsys.readouterr().err
+
+
+def test_sweep_jobs_cover_every_training_seed(setup):
+    from d3dwa_bullet.evaluation.sweep import SweepSettings, sweep_jobs
+
+    _, folder = setup
+    settings = SweepSettings(methods=("dwa3", "d3dwa"), worlds=("R1",), layouts=0, seeds=1,
+                             axes=(), profiles=("none", "real"))  # fmt: skip
+    jobs = sweep_jobs(settings, None)
+    assert {(j.method, j.policy_seed) for j in jobs} >= {("dwa3", None)}
+    one = SweepSettings(methods=("d3dwa",), worlds=("R1",), layouts=0, seeds=1, axes=(),
+                        profiles=("none", "real"), policy_seeds="1")  # fmt: skip
+    jobs = sweep_jobs(one, str(folder))
+    assert [(j.policy_seed, j.noise) for j in jobs] == [(1, "none"), (1, "real")]
+    assert jobs[0].policy == str(folder / "seed-1")
