@@ -162,13 +162,19 @@ def write_table_page(
 
 
 def learning_curves(out: Path, policies_dir: Path | None = None) -> list[tuple[str, str]]:
-    """Copy every policies/<name>/learning_curve.png into out/figures; (name, link) pairs."""
+    """Copy every policies/<name>/learning_curve.png and policies/<name>/seed-<k>/
+    learning_curve.png into out/figures; (name, link) pairs, name "<method>/seed-<k>" for a
+    seed's."""
     policies_dir = shipped_policies_dir() if policies_dir is None else policies_dir
-    found = sorted(policies_dir.glob(f"*/{LEARNING_CURVE}")) if policies_dir.is_dir() else []
+    found = (
+        sorted([*policies_dir.glob(f"*/{LEARNING_CURVE}"),
+                *policies_dir.glob(f"*/seed-*/{LEARNING_CURVE}")])
+        if policies_dir.is_dir() else []
+    )  # fmt: skip
     links = []
     for src in found:
-        name = src.parent.name
-        dest = out / "figures" / f"learning_curve_{name}.png"
+        name = src.parent.relative_to(policies_dir).as_posix()
+        dest = out / "figures" / f"learning_curve_{name.replace('/', '_')}.png"
         dest.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_bytes(dest, src.read_bytes())
         links.append((name, dest.relative_to(out).as_posix()))
@@ -302,8 +308,10 @@ def write_report(
         page.append("\n## Learning curves\n\n")
         where = policies.name
         for name, link in curves:
+            method, _, seed = name.partition("/")
+            label = LABELS.get(method, method) + (f", {seed}" if seed else "")
             page.append(
-                f"### {LABELS.get(name, name)} (`{where}/{name}/{LEARNING_CURVE}`)\n\n"
+                f"### {label} (`{where}/{name}/{LEARNING_CURVE}`)\n\n"
                 f"![{name} learning curve]({link})\n\n"
             )
     path = out / "report.md"

@@ -39,6 +39,8 @@ def policies(tmp_path_factory):
     fig, ax = plt.subplots(figsize=(3, 2))
     ax.plot([0, 1], [0, 1])
     fig.savefig(root / "d3dwa" / "learning_curve.png")
+    (root / "d3dwa-weights" / "seed-2").mkdir(parents=True)  # a training seed's curve
+    fig.savefig(root / "d3dwa-weights" / "seed-2" / "learning_curve.png")
     plt.close(fig)
     (root / "dqdwa").mkdir()  # a policy without a curve is simply left out
     return root
@@ -61,6 +63,8 @@ def test_eval_report_embeds_tables_figures_and_learning_curves(eval_dir, policie
     links = images_exist(page, eval_dir)
     assert "figures/tiny_time.png" in links
     assert "figures/learning_curve_d3dwa.png" in links and "dqdwa" not in " ".join(links)
+    assert "figures/learning_curve_d3dwa-weights_seed-2.png" in links
+    assert "### D3DWA (w/o horizon), seed-2 (`" in page
 
 
 def test_interrupted_run_leaves_no_table_and_an_honest_page(
