@@ -65,7 +65,9 @@ def beam_sectors(scan: LaserScan, mount: Pose2D, params: ObservationParams) -> n
     return np.where((ang >= -half) & (ang <= half), idx, -1)
 
 
-def _noise(diffs: np.ndarray) -> float | None:
+def difference_noise_std(diffs: np.ndarray) -> float | None:
+    """Std of one reading from differences of two readings of the same thing:
+    ``1.4826 * MAD(d) / sqrt(2)`` (None with fewer than two differences)."""
     if diffs.size < 2:
         return None
     mad = float(np.median(np.abs(diffs - np.median(diffs))))
@@ -126,7 +128,7 @@ def scan_statistics(
         out["valid_ratio"] = valid / beams if beams else None
         for c, name in enumerate(READING_CLASSES, start=1):
             out[name] = int(counts[k, c])
-        out["noise_std"] = _noise(np.concatenate(diffs[k])) if diffs[k] else None
+        out["noise_std"] = difference_noise_std(np.concatenate(diffs[k])) if diffs[k] else None
         return out
 
     width = math.degrees(params.fov) / k_all
