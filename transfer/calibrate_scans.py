@@ -7,10 +7,11 @@ whole package. Estimators (``S`` scans of ``N`` beams, one bag at a time, then p
 * **range_std**: on *stationary* scan pairs, the differences of beams valid in both,
   ``difference_noise_std`` (1.4826 MAD / sqrt 2). A pair is stationary when the odometry
   (the bag's pose source) says the robot stood still at both scans, or, without odometry,
-  when two consecutive scans differ by no more than their own within-scan noise explains.
+  when the beam-by-beam differences of two consecutive scans are white noise (motion makes
+  them smooth along the scan and large).
   With fewer than ``MIN_STATIONARY_PAIRS`` such pairs: the **line-fit fallback**, residuals of
-  each valid beam against the chord of its two valid neighbours (a local 3-beam line fit,
-  variance 1.5 sigma^2), robust std; a note says so.
+  each valid beam's range against the line through its two valid neighbours' points (a local
+  3-beam line fit, residual variance about 1.5 sigma^2), robust std; a note says so.
 * **dropout per sector and its kind mix**: among beams valid in the scans before and after,
   the fraction invalid in the scan between (a persistent +inf is open space, not a dropout);
   the classes of those readings give the NaN / +inf / -inf / 0.0 / out-of-range mix.
@@ -48,8 +49,11 @@ MIN_STATIONARY_PAIRS = 5
 MIN_LINE_TRIPLES = 500
 #: Odometry speeds below which the robot stands still: m/s, rad/s.
 STILL_SPEED = (0.005, 0.01)
-#: Without odometry: a pair is still if its difference noise <= this x its line-fit noise + floor.
-STILL_RATIO, STILL_FLOOR = 1.5, 0.001
+#: Without odometry, a pair is still if its beam differences are white: their spread is at
+#: most this multiple of the spread their beam-to-beam roughness implies (motion makes them
+#: smooth and large: ratios of 2-5), or below the floor (m). Slow motion along walls can pass
+#: for standing still, but then it inflates the noise estimate by at most this ratio - 1.
+STILL_RATIO, STILL_FLOOR = 1.1, 0.001
 #: Dropouts a sector needs for its own kind mix (else the mix over all sectors).
 MIN_SECTOR_DROPOUTS = 20
 #: Phantoms needed to estimate their range (else spurious_min / max stay the base's).
@@ -100,12 +104,19 @@ def _robust_std(x: np.ndarray) -> float:
     return float(median_abs_deviation(x, scale="normal")) if x.size >= 2 else math.nan
 
 
-def _chord_residuals(r: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """(S, N) ranges -> residuals of every beam valid with both its neighbours."""
+def _chord_residuals(r: np.ndarray, valid: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """(S, N) ranges -> for every beam valid with both its neighbours, its range minus the
+    range at which its ray meets the line through the neighbours' points (a local line fit
+    in the plane: no bias on flat surfaces, whatever the incidence)."""
     ok = valid[:, 1:-1] & valid[:, :-2] & valid[:, 2:]
-    with np.errstate(invalid="ignore"):
-        e = r[:, 1:-1] - 0.5 * (r[:, :-2] + r[:, 2:])
-    return e[ok]
+    c, s = np.cos(angles), np.sin(angles)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x, y = r * c, r * s
+        x1, y1, x3, y3 = x[:, :-2], y[:, :-2], x[:, 2:], y[:, 2:]
+        dx, dy = x3 - x1, y3 - y1
+        t = (x1 * dy - y1 * dx) / (c[1:-1] * dy - s[1:-1] * dx)
+        e = r[:, 1:-1] - t
+    return e[ok & np.isfinite(e)]
 
 
 def _still_pairs(
@@ -125,14 +136,12 @@ def _still_pairs(
         ], f"odometry {bag.topics['odometry'] or bag.topics['wheel_odometry']}"
     pairs = np.zeros(max(len(times) - 1, 0), dtype=bool)
     for k in range(pairs.size):
-        both = valid[k] & valid[k + 1]
-        diff = difference_noise_std(r[k + 1][both] - r[k][both])
-        own = _robust_std(_chord_residuals(r[k : k + 2], valid[k : k + 2])) / math.sqrt(
-            CHORD_VARIANCE
-        )
-        pairs[k] = (
-            diff is not None and math.isfinite(own) and diff <= STILL_RATIO * own + STILL_FLOOR
-        )
+        with np.errstate(invalid="ignore"):  # inf - inf on invalid beams, masked
+            d = np.where(valid[k] & valid[k + 1], r[k + 1] - r[k], np.nan)
+        d2 = d[:-2] - 2.0 * d[1:-1] + d[2:]  # white noise: variance 6 var(d); motion: ~0
+        whole = _robust_std(d[np.isfinite(d)])
+        white = _robust_std(d2[np.isfinite(d2)]) / math.sqrt(6.0)
+        pairs[k] = whole <= STILL_FLOOR or whole <= STILL_RATIO * white
     return pairs, "scan-to-scan change (no odometry)"
 
 
@@ -163,7 +172,7 @@ def _add_bag(bag: BagData, pooled: _Pooled, notes: list[str]) -> None:
         both = valid[1:] & valid[:-1] & still[:, None]
         with np.errstate(invalid="ignore"):
             pooled.still_diffs.append((r[1:] - r[:-1])[both])
-    pooled.chord.append(_chord_residuals(r, valid))
+    pooled.chord.append(_chord_residuals(r, valid, first.angles))
 
     if len(index) < 3:
         return

@@ -8,6 +8,7 @@
     d3dwa compare DIR --methods A,B       P(A improves on B) over training seeds, with intervals
     d3dwa train --config configs/d3dwa.yaml --out runs/d3dwa   train a learned method (--resume)
     d3dwa replay / record / compare-scans ROS bags (see d3dwa_bullet.cli.transfer)
+    d3dwa calibrate BAG... --out my_robot.yaml   fit a noise profile to your own bags
 
 Each command is one module of this package (``worlds``, ``run``, ``eval``, ``sweep``,
 ``report``, ``compare``, ``train``, ``bags``) with ``add_parser(sub)`` and its ``cmd_*(args)``; shared
@@ -31,6 +32,7 @@ import threading
 from collections.abc import Sequence
 
 import d3dwa_bullet.cli.bags as bags_commands
+import d3dwa_bullet.cli.calibrate as calibrate_command
 import d3dwa_bullet.cli.compare as compare_command
 import d3dwa_bullet.cli.eval as eval_command
 import d3dwa_bullet.cli.report as report_command
@@ -50,6 +52,7 @@ COMMANDS = (
     compare_command,
     train_command,
     bags_commands,
+    calibrate_command,
 )
 """Modules with ``add_parser(sub)``, in the order of ``d3dwa --help``."""
 
