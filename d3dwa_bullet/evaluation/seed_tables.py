@@ -32,7 +32,7 @@ from d3dwa_bullet.evaluation.seed_stats import (
     mean_interval,
     probability_of_improvement,
 )
-from d3dwa_bullet.methods import LABELS
+from d3dwa_bullet.methods import FIXED, LABELS
 
 Row = Mapping[str, Any]
 Run = tuple[str, int]
@@ -106,11 +106,13 @@ def _time_interval(scores: list[list[float]]) -> Interval | None:
     return iqm_interval(scores) if scores else None
 
 
-def _runs_label(rows: Sequence[Row]) -> str:
-    seeds, episodes = _n_runs(rows)
+def _runs_label(method: str, rows: Sequence[Row]) -> str:
+    seeds, n = _n_runs(rows)
+    episodes = f"{n} episode{'s' * (n != 1)}"
     if seeds:
-        return f"{seeds} training seeds, {episodes} episodes"
-    return f"fixed, {episodes} episodes"
+        return f"{seeds} training seed{'s' * (seeds != 1)}, {episodes}"
+    kind = "fixed" if method in FIXED else "one policy, no training seeds"
+    return f"{kind}, {episodes}"
 
 
 def seed_tables(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence[str]) -> str:
@@ -137,7 +139,7 @@ def seed_tables(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence[st
             t_all.append(t)
             s_cells.append(_rate(mean_interval([s])))
             t_cells.append(_time(_time_interval([t])))
-        label = f"| {LABELS.get(m, m)} | {_runs_label(mine)} | "
+        label = f"| {LABELS.get(m, m)} | {_runs_label(m, mine)} | "
         success.append(label + " | ".join(s_cells) + f" | {_rate(mean_interval(s_all))} |")
         timing.append(label + " | ".join(t_cells) + f" | {_time(_time_interval(t_all))} |")
     return (

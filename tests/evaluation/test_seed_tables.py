@@ -147,3 +147,13 @@ def test_condition_table_averages_the_worlds_of_a_group_per_profile():
     lines = table.splitlines()[2:]
     assert [line.split("|")[2].strip() for line in lines] == ["shipped", "generated", "all layouts"]
     assert all(line.split("|")[3:5] == [" 100 [100, 100] ", " 0 [0, 0] "] for line in lines)
+
+
+def test_the_runs_column_says_what_a_run_is():
+    rows = learned("TS1", [1]) + [row("dwa3", "TS1", None, 0, "goal")]
+    rows += [row("dqdwa", "TS1", None, 0, "goal"), row("dqdwa", "TS1", None, 1, "goal")]
+    table = seed_tables(rows, ["dwa3", "dqdwa", "d3dwa"], ["TS1"])
+    runs = [line.split("|")[2].strip() for line in table.split("### Time")[0].splitlines()
+            if line.startswith("| D") and "Method" not in line]  # fmt: skip
+    assert runs == ["fixed, 1 episode", "one policy, no training seeds, 2 episodes",
+                    "1 training seed, 1 episode"]  # fmt: skip
