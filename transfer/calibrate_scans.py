@@ -15,12 +15,13 @@ whole package. Estimators (``S`` scans of ``N`` beams, one bag at a time, then p
 * **dropout per sector and its kind mix**: among beams valid in the scans before and after,
   the fraction invalid in the scan between (a persistent +inf is open space, not a dropout);
   the classes of those readings give the NaN / +inf / -inf / 0.0 / out-of-range mix.
-* **spurious returns**: a valid reading shorter by a margin than the agreeing readings of
-  the same beam before and after (in front of a surface only: +inf on both sides is as
-  likely two dropouts as open space, and the rate is per beam either way). Phantoms close to the true
-  range cannot be seen, so the count is divided by each candidate's chance of detection for
-  a phantom uniform on [min, max] of the detected values, and by the chance the phantom was
-  not dropped afterwards.
+* **spurious returns**: a lone valid reading, shorter by max(0.15 m, 20 %) than the agreeing
+  readings of the same beam before and after, and by 0.15 m than its angular neighbours (an
+  object edge spans beams, a phantom is one beam). Only in front of surfaces: +inf on both
+  sides is as likely two dropouts as open space, and the rate is per beam either way.
+  Phantoms close to the true range cannot be seen, so the count is divided by each
+  candidate's chance of detection for a phantom uniform on [min, max] of the detected
+  values, and by the chance the phantom was not dropped afterwards.
 * **sensor** (informational): beam count, field of view (angle_max - angle_min), increment,
   range limits, scan rate (1 / median scan interval).
 """
@@ -58,8 +59,10 @@ STILL_RATIO, STILL_FLOOR = 1.1, 0.001
 MIN_SECTOR_DROPOUTS = 20
 #: Phantoms needed to estimate their range (else spurious_min / max stay the base's).
 MIN_PHANTOMS = 10
-#: A phantom is shorter than its neighbours by this margin, m; the neighbours agree within it.
-PHANTOM_MARGIN = 0.15
+#: A phantom is shorter than the same beam before and after by max(margin, fraction x their
+#: range), and differs by the margin (m) from its angular neighbours; the readings before and
+#: after agree within the margin. (Grazing walls seen while driving change by a few % a scan.)
+PHANTOM_MARGIN, PHANTOM_FRACTION = 0.15, 0.2
 #: The line-fit residual r_i - (r_{i-1} + r_{i+1}) / 2 has variance 1.5 sigma^2.
 CHORD_VARIANCE = 1.5
 OBSERVATION = ObservationParams()
@@ -190,8 +193,12 @@ def _add_bag(bag: BagData, pooled: _Pooled, notes: list[str]) -> None:
         ref = np.where(agree, 0.5 * (ra + rb), np.inf)
     # Only in front of a surface: +inf on both sides is as often two dropouts as open space.
     pooled.phantom_refs.append((ref[agree], np.broadcast_to(sector, ref.shape)[agree]))
+    # ... and alone in its scan: an object edge spans beams, a phantom is one beam.
+    pad = np.full((rk.shape[0], 1), np.inf)
     with np.errstate(invalid="ignore"):
-        hit = agree & valid[now] & (rk < ref - PHANTOM_MARGIN)
+        left = np.abs(rk - np.hstack((pad, rk[:, :-1]))) > PHANTOM_MARGIN
+        right = np.abs(rk - np.hstack((rk[:, 1:], pad))) > PHANTOM_MARGIN
+        hit = agree & valid[now] & (rk < ref - _shortfall(ref)) & left & right
     pooled.phantoms.append(rk[hit])
 
 
@@ -306,6 +313,11 @@ def _dropout(pooled: _Pooled, est: dict[str, Estimate]) -> np.ndarray:
     return rate
 
 
+def _shortfall(ref: np.ndarray) -> np.ndarray:
+    """How much shorter than the surrounding readings (m) a phantom must be."""
+    return np.maximum(PHANTOM_MARGIN, PHANTOM_FRACTION * ref)
+
+
 def _spurious(pooled: _Pooled, est: dict[str, Estimate], drop: np.ndarray) -> None:
     if not pooled.phantom_refs:
         return
@@ -320,9 +332,8 @@ def _spurious(pooled: _Pooled, est: dict[str, Estimate], drop: np.ndarray) -> No
         )
         return
     lo, hi = float(values.min()), float(values.max())
-    margin = PHANTOM_MARGIN
     if n >= MIN_PHANTOMS and hi > lo:
-        detect = np.clip((ref - margin - lo) / (hi - lo), 0.0, 1.0)
+        detect = np.clip((ref - _shortfall(ref) - lo) / (hi - lo), 0.0, 1.0)
         est["lidar.spurious_min"] = Estimate(round(lo, 4), f"shortest of {n} phantom returns")
         est["lidar.spurious_max"] = Estimate(round(hi, 4), f"longest of {n} phantom returns")
     else:
@@ -330,7 +341,8 @@ def _spurious(pooled: _Pooled, est: dict[str, Estimate], drop: np.ndarray) -> No
     expected = float((detect * kept).sum())
     est["lidar.spurious_prob"] = Estimate(
         round(n / expected, 6) if expected > 0 else 0.0,
-        f"{n} valid readings shorter by > {margin:.2f} m than the same beam before and after, "
+        f"{n} lone valid readings shorter by > max({PHANTOM_MARGIN} m, {PHANTOM_FRACTION:.0%}) "
+        "than the same beam before and after, "
         f"over {expected:.0f} detectable candidates",
     )
 
