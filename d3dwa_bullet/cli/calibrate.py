@@ -19,7 +19,6 @@ from d3dwa_bullet.cli.options import parse_floats
 from d3dwa_bullet.cli.output import json_text
 from d3dwa_bullet.cli.transfer import parse_topic_overrides
 from d3dwa_bullet.sim.scan import Pose2D
-from transfer.calibration import calibrate
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -44,6 +43,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_calibrate(args: argparse.Namespace, out: TextIO | None = None) -> int:
+    # start-up cost: the fits import scipy.optimize and scipy.stats (~0.3 s)
+    from transfer.calibration import calibrate
+
     out = sys.stdout if out is None else out
     mount = Pose2D(*parse_floats(args.mount, 3, "--mount")) if args.mount else None
     result = calibrate(
