@@ -34,6 +34,7 @@ def test_failures_are_counted_by_mode_per_noise_and_method(tmp_path, capsys):
     assert records["d3dwa"]["episodes"] == 2 and records["d3dwa"]["failures"] == 1
     assert records["d3dwa"]["modes"]["stall"] == 1 and records["d3dwa"]["symptoms"]["stall"] == 1
     assert records["dwa3"]["modes"]["collision"] == 1
+    assert records["d3dwa"]["symptoms_in_goals"]["stall"] == 1  # the success stalled too
     assert main([str(out), "--json", "--figure", str(tmp_path / "modes.png")]) == 0
     assert json.loads(capsys.readouterr().out)[0]["noise"] == "harsh"
     assert (tmp_path / "modes.png").read_bytes()[:4] == b"\x89PNG"
@@ -43,6 +44,4 @@ def test_a_missing_log_is_named(tmp_path, capsys):
     out = results_dir(tmp_path)
     next((out / "logs").glob("W__d3dwa__p0*")).unlink()
     assert main([str(out)]) == 2
-    assert (
-        "W__d3dwa__p0__harsh__s0.npz: log of a failed episode is missing" in capsys.readouterr().err
-    )
+    assert "W__d3dwa__p0__harsh__s0.npz: log of the episode is missing" in capsys.readouterr().err

@@ -1,9 +1,10 @@
 """Failure modes of a sweep (or eval) directory: how each method fails under each noise.
 
-Reads results.csv and every failed episode's per-step log, classifies it with
+Reads results.csv and every episode's per-step log, classifies each failure with
 :mod:`d3dwa_bullet.evaluation.failures` (primary mode and symptoms), and prints one row per
-(noise, method): episodes, failures, the count of each primary mode, and how many failures
-show each symptom at all. ``--figure PNG`` draws the primary modes as stacked bars per
+(noise, method): episodes, failures, the count of each primary mode, how many failures
+show each symptom at all, and how many successful episodes show it too (a symptom as
+common among successes does not explain the failures). ``--figure PNG`` draws the primary modes as stacked bars per
 noise profile; ``--json`` prints the records.
 
     python -m tools.experiments.failure_modes /work/results/profiles-seeds --figure modes.png
@@ -40,19 +41,23 @@ def failure_records(out: Path) -> list[dict[str, Any]]:
     for (noise, method), rs in groups.items():
         modes: Counter[str] = Counter()
         seen: Counter[str] = Counter()
+        in_goals: Counter[str] = Counter()
         for r in rs:
-            if r["outcome"] == "goal":
-                continue
             path = out / "logs" / log_name(row_key(r))
             if not path.is_file():
-                raise ResultsError(f"{path}: log of a failed episode is missing")
+                raise ResultsError(f"{path}: log of the episode is missing")
             found = classify(load_log(path))
+            if r["outcome"] == "goal":
+                in_goals.update(found["symptoms"])
+                continue
             modes[found["mode"]] += 1
             seen.update(found["symptoms"])
+        failures = sum(modes.values())
         records.append({
-            "noise": noise, "method": method, "episodes": len(rs),
-            "failures": sum(modes.values()),
+            "noise": noise, "method": method, "episodes": len(rs), "failures": failures,
             "modes": {m: modes[m] for m in MODES}, "symptoms": {s: seen[s] for s in SYMPTOMS},
+            # the same symptoms among the successes: a symptom as common there explains nothing
+            "symptoms_in_goals": {s: in_goals[s] for s in SYMPTOMS},
         })  # fmt: skip
     return records
 
@@ -63,14 +68,18 @@ def markdown(records: Sequence[dict[str, Any]], noises: Sequence[str]) -> str:
         + " | ".join(MODES)
         + " | "
         + " | ".join(f"any {s}" for s in SYMPTOMS)
+        + " | "
+        + " | ".join(f"{s} in goals" for s in SYMPTOMS)
         + " |",
-        "|---|---|" + "---:|" * (2 + len(MODES) + len(SYMPTOMS)),
+        "|---|---|" + "---:|" * (2 + len(MODES) + 2 * len(SYMPTOMS)),
     ]
     for noise in noises:
         for r in (r for r in records if r["noise"] == noise):
             cells = [str(r["episodes"]), str(r["failures"])]
             cells += [str(r["modes"][m] or "") for m in MODES]
             cells += [str(r["symptoms"][s] or "") for s in SYMPTOMS]
+            goals = r["episodes"] - r["failures"]
+            cells += [f"{r['symptoms_in_goals'][s]}/{goals}" if goals else "" for s in SYMPTOMS]
             label = LABELS.get(r["method"], r["method"])
             lines.append(f"| {noise} | {label} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
