@@ -186,10 +186,11 @@ def improvement(
 ) -> list[dict[str, Any]]:
     """P(a > b) on success per group of tasks, and over every task the two methods share.
 
-    groups_of names the groups a row's task belongs to (e.g. its layout group under its
-    noise, and all layouts under that noise). Returns records {"group", "tasks", "runs_a",
-    "runs_b", "p", "low", "high"}: the groups in first-seen order, then "all". ResultsError
-    if the methods share no task."""
+    groups_of names the groups a row's task belongs to, finest first (e.g. its layout group
+    under its noise, then all layouts under that noise). Returns records {"group", "tasks",
+    "runs_a", "runs_b", "p", "low", "high"}: the finest groups in first-seen order, then the
+    coarser ones (left out where they hold the same tasks as "all"), then "all".
+    ResultsError if the methods share no task."""
     tasks: dict[tuple[str, str], dict[str, list[Row]]] = defaultdict(lambda: defaultdict(list))
     member: dict[tuple[str, str], Sequence[str]] = {}
     for r in rows:
@@ -200,10 +201,17 @@ def improvement(
     shared = [t for t, per in tasks.items() if a in per and b in per]
     if not shared:
         raise ResultsError(f"methods {a!r} and {b!r} share no (world, noise) in these results")
-    names = list(dict.fromkeys(g for t in shared for g in member[t] if g != "all"))
+    depth = max(len(member[t]) for t in shared)
+    level_of: dict[str, int] = {}
+    for level in range(depth):  # the finest groups first, then the coarser ones
+        for t in shared:
+            if level < len(member[t]):
+                level_of.setdefault(member[t][level], level)
     records = []
-    for name in [*names, "all"]:
+    for name in [*level_of, "all"]:
         members = shared if name == "all" else [t for t in shared if name in member[t]]
+        if name != "all" and level_of[name] > 0 and len(members) == len(shared):
+            continue  # a coarser group with the same tasks as "all": that row says it
         xa = [success_scores(tasks[t][a]) for t in members]
         xb = [success_scores(tasks[t][b]) for t in members]
         p = probability_of_improvement(xa, xb)

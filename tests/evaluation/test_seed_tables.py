@@ -112,9 +112,9 @@ def groups(r):
 def test_probability_of_improvement_by_hand():
     # A's five seeds always reach the goal, B's never: A always improves on B, surely.
     rows = learned("TS1", [1] * 5) + learned("TS1", [0] * 5, method="d3dwa-weights")
-    [ts, everything, total] = improvement(rows, "d3dwa", "d3dwa-weights", groups)
+    [ts, total] = improvement(rows, "d3dwa", "d3dwa-weights", groups)
     assert ts["group"] == "TS" and (ts["p"], ts["low"], ts["high"]) == (1.0, 1.0, 1.0)
-    assert everything["group"] == "all worlds" and total["group"] == "all"
+    assert total["group"] == "all"  # "all worlds" holds the same tasks as "all": left out
     # Against a fixed method's two runs (one goal, one not): P = P(1 > 1)/2 + P(1 > 0) = 0.75.
     rows += [row("dwa3", "TS1", None, 0, "goal"), row("dwa3", "TS1", None, 1, "timeout")]
     [ts, *_] = improvement(rows, "d3dwa", "dwa3", groups)
@@ -157,3 +157,21 @@ def test_the_runs_column_says_what_a_run_is():
             if line.startswith("| D") and "Method" not in line]  # fmt: skip
     assert runs == ["fixed, 1 episode", "one policy, no training seeds, 2 episodes",
                     "1 training seed, 1 episode"]  # fmt: skip
+
+
+def test_finer_groups_come_first_and_coarser_ones_follow():
+    rows = []
+    for world, noise in (("TS1", "none"), ("US1", "none"), ("TS1", "harsh")):
+        rows += learned(world, [1, 0], noise=noise) + learned(
+            world, [0], method="dwa3", noise=noise
+        )
+
+    def by_noise(r):
+        return [f"{r['world'][:2]} ({r['noise']})", f"all worlds ({r['noise']})"]
+
+    records = improvement(rows, "d3dwa", "dwa3", by_noise)
+    assert [(r["group"], r["tasks"]) for r in records] == [
+        ("TS (none)", 1), ("US (none)", 1), ("TS (harsh)", 1), ("all worlds (none)", 2),
+        ("all worlds (harsh)", 1), ("all", 3),
+    ]  # fmt: skip
+    assert all(r["p"] == pytest.approx(0.75) for r in records)  # [1, 0] vs [0]: 1 and 0.5
