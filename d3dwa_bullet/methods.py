@@ -78,6 +78,16 @@ def make_controller(name: str, policy_path: str | Path | None = None) -> Control
     # which fixed methods (and every pure caller of this registry) never need
     from d3dwa_bullet.learning.agents.policy import load_policy
 
+    path, source = one_policy(name, policy_path)
+    policy, actions, _ = load_policy(path, expected_actions=LEARNED[name])
+    return Controller(name, policy=policy, actions=actions, source=source)
+
+
+def one_policy(name: str, policy_path: str | Path | None = None) -> tuple[Path, str]:
+    """(folder, description) of the one policy a single episode of a learned method drives:
+    policy_path (default: the shipped ``policies/<name>/``), or, for a folder of training
+    seeds, its lowest seed, never one chosen by its results (``d3dwa eval`` and ``d3dwa
+    sweep`` drive every seed). CheckpointError if there is none."""
     path = Path(policy_path) if policy_path is not None else default_policy_path(name)
     if not path.exists():
         raise CheckpointError(
@@ -85,11 +95,7 @@ def make_controller(name: str, policy_path: str | Path | None = None) -> Control
             "or pass --policy PATH"
         )
     seeds = seed_dirs(path)
-    source = str(path)
     if seeds and not (path / "meta.json").exists():
-        # A folder of training seeds; one episode drives one of them: the first, never one
-        # chosen by its results. `d3dwa eval` and `d3dwa sweep` drive every seed.
         first = next(iter(seeds))
-        path, source = seeds[first], f"{seeds[first]} (training seed {first} of {len(seeds)})"
-    policy, actions, _ = load_policy(path, expected_actions=LEARNED[name])
-    return Controller(name, policy=policy, actions=actions, source=source)
+        return seeds[first], f"{seeds[first]} (training seed {first} of {len(seeds)})"
+    return path, str(path)

@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from d3dwa_bullet.learning.agents.policy import load_policy
-from d3dwa_bullet.methods import LEARNED, default_policy_path
+from d3dwa_bullet.methods import LEARNED, one_policy
 
 
 def bench(method: str, path, calls: int, seed: int) -> dict:
@@ -52,9 +52,7 @@ def main() -> None:
     methods = args.methods.split(",")
     if args.policy and len(methods) != 1:
         ap.error("--policy needs exactly one --methods")
-    out = {
-        m: bench(m, args.policy or default_policy_path(m), args.calls, args.seed) for m in methods
-    }
+    out = {m: bench(m, one_policy(m, args.policy)[0], args.calls, args.seed) for m in methods}
     if args.json:
         print(json.dumps(out))
     else:

@@ -29,7 +29,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from d3dwa_bullet.methods import FIXED, LEARNED, default_policy_path
+from d3dwa_bullet.methods import FIXED, LEARNED, default_policy_path, one_policy
 from transfer.bag_writer import BagRecorder
 from transfer.replay import replay_bag
 from transfer.sim_bridge import make_step_fn, record_episode
@@ -90,7 +90,11 @@ def main(argv: list[str] | None = None) -> int:
         policy = args.policy
         if policy is None and args.method not in FIXED:
             shipped = default_policy_path(args.method)
-            policy = shipped if shipped.exists() else stand_in_policy(args.method, work)
+            policy = (
+                one_policy(args.method)[0]
+                if shipped.exists()
+                else stand_in_policy(args.method, work)
+            )
         bag = args.bag
         if bag is None:
             bag = work / f"{args.world}_{args.noise}"
