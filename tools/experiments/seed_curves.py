@@ -1,0 +1,95 @@
+"""Learning curves over training seeds: the greedy validation success of every seed of a run.
+
+Reads ``eval/success_rate`` from each ``seed-<k>/metrics.jsonl`` of one or more training
+runs over seeds (``d3dwa train --seeds 0-4 --out runs/NAME``) and draws one panel per run:
+a thin line per seed, the mean over seeds thick, and a dot at the checkpoint ``keep: best``
+kept (from each seed's summary.json). The validation layouts are training material, so
+these curves say how training went, not how a method does on the reported worlds.
+
+    python -m tools.experiments.seed_curves runs/d3dwa runs/d3dwa-weights --out curves.png
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from d3dwa_bullet.learning.training.logs import read_metrics
+from d3dwa_bullet.methods import LABELS
+from d3dwa_bullet.seed_dirs import seed_dirs
+
+
+def seed_curves(run: Path) -> dict[int, tuple[np.ndarray, np.ndarray, int | None]]:
+    """Per seed of a run: (steps, validation success, step kept or None)."""
+    curves = {}
+    for k, path in seed_dirs(run).items():
+        rows = read_metrics(path, "eval/success_rate")
+        if not rows:
+            continue
+        summary = path / "summary.json"
+        best = json.loads(summary.read_text()).get("best_eval") if summary.is_file() else None
+        steps = np.array([r["step"] for r in rows])
+        values = np.array([r["value"] for r in rows])
+        curves[k] = (steps, values, (best or {}).get("step"))
+    return curves
+
+
+def figure(runs: Sequence[Path], out: Path) -> Path:
+    # start-up cost: matplotlib only here
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(runs), figsize=(3.6 * len(runs), 3.2), sharey=True)
+    axes = [axes] if len(runs) == 1 else list(axes)
+    for ax, run in zip(axes, runs, strict=True):
+        curves = seed_curves(run)
+        method = json.loads(next(iter(seed_dirs(run).values())).joinpath("config.json")
+                            .read_text())["method"] if curves else run.name  # fmt: skip
+        for k, (steps, values, kept) in curves.items():
+            ax.plot(steps / 1000, values, lw=0.8, alpha=0.6, label=f"seed {k}")
+            if kept is not None and kept in steps:
+                ax.plot(kept / 1000, values[list(steps).index(kept)], "o", ms=4, color="k")
+        lengths = {len(s) for s, _, _ in curves.values()}
+        if len(lengths) == 1 and curves:
+            steps = next(iter(curves.values()))[0]
+            mean = np.mean([v for _, v, _ in curves.values()], axis=0)
+            ax.plot(steps / 1000, mean, lw=2.2, color="k", label="mean")
+        ax.set_title(f"{LABELS.get(method, method)} ({len(curves)} seeds)", fontsize=9)
+        ax.set_xlabel("env steps [k]")
+        ax.set_ylim(-0.03, 1.03)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("greedy validation success")
+    axes[-1].legend(fontsize=6, loc="lower right")
+    fig.suptitle("Validation success over training (dots: the checkpoint keep: best kept)",
+                 fontsize=9)  # fmt: skip
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=130)
+    plt.close(fig)
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("runs", nargs="+", help="training runs over seeds (folders of seed-<k>/)")
+    ap.add_argument("--out", required=True, help="PNG to write")
+    args = ap.parse_args(argv)
+    runs = [Path(r) for r in args.runs]
+    empty = [str(r) for r in runs if not seed_curves(r)]
+    if empty:
+        print(f"seed_curves: error: {empty[0]}: no seed-<k>/metrics.jsonl with evaluations",
+              file=sys.stderr)  # fmt: skip
+        return 2
+    print(f"figure: {figure(runs, Path(args.out))}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
