@@ -108,8 +108,8 @@ def test_keep_best_refuses_worlds_a_table_reports(tiny: str, tmp_path: Path) -> 
         assert not (tmp_path / world / "config.json").exists()
     ok = _config(tiny, keep="best", eval_every=20, eval_worlds=("R2-style-s3",), total_steps=20)
     assert train(ok, tmp_path / "ok", progress=False)["status"] == "done"
-    # a shipped policy's own config (selected on TS1-TS4 before this rule) still loads
-    assert load_train_config(policies_dir() / "d3dwa" / "config.json").keep == "best"
+    # a shipped seed's own config loads and names the rule it was selected by
+    assert load_train_config(policies_dir() / "d3dwa" / "seed-0" / "config.json").keep == "best"
 
 
 def test_one_episode_of_a_folder_of_seeds_drives_its_first_seed(tmp_path: Path) -> None:
@@ -118,7 +118,7 @@ def test_one_episode_of_a_folder_of_seeds_drives_its_first_seed(tmp_path: Path) 
     from d3dwa_bullet.methods import make_controller
 
     for k in (3, 1):
-        shutil.copytree(policies_dir() / "d3dwa", tmp_path / "d3dwa" / f"seed-{k}")
+        shutil.copytree(policies_dir() / "d3dwa" / "seed-0", tmp_path / "d3dwa" / f"seed-{k}")
     controller = make_controller("d3dwa", tmp_path / "d3dwa")
     assert controller.source == f"{tmp_path / 'd3dwa' / 'seed-1'} (training seed 1 of 2)"
     assert make_controller("d3dwa", tmp_path / "d3dwa" / "seed-3").policy is not None

@@ -1,5 +1,7 @@
-"""Every learned method ships a policy in policies/, loading with its method's action set and
-choosing the recorded greedy actions (so swapped, retrained or altered weights are caught)."""
+"""Every learned method ships five or more training seeds in policies/<method>/seed-<k>/, each
+loading with its method's action set, carrying its config, learning curve and run summary,
+all trained under one config, and choosing the recorded greedy actions (so swapped,
+retrained or altered weights are caught)."""
 
 from __future__ import annotations
 
@@ -8,9 +10,17 @@ import json
 import numpy as np
 import pytest
 
+from d3dwa_bullet.evaluation.policy_runs import check_one_experiment
 from d3dwa_bullet.learning.agents.policy import load_policy
 from d3dwa_bullet.learning.training import load_train_config
 from d3dwa_bullet.methods import LEARNED, default_policy_path, make_controller
+from d3dwa_bullet.seed_dirs import seed_dirs
+
+MIN_SEEDS = 5
+"""The learning protocol's minimum (docs/design.md#learning-protocol)."""
+SHORT_OF_TARGET: dict[str, int] = {"dqdwa": 3}
+"""Methods whose remaining seeds are still training (resumable with --resume), with the
+number shipped so far; empty once every method has MIN_SEEDS."""
 
 OBSERVATIONS = np.array(
     [
@@ -22,55 +32,95 @@ OBSERVATIONS = np.array(
         [0.1, 0.9, 0.0, 0.3] + [0.8] * 8,
     ]
 )
-"""Fixed observations [d_g, theta_g, v, w, l_1..l_8]; for every shipped policy each one's best
-action beats the runner-up by > 2e-3 (no near-ties that float rounding could flip)."""
+"""Fixed observations [d_g, theta_g, v, w, l_1..l_8]."""
 
 GOLDEN_ACTIONS = {
-    "d3dwa": [42, 17, 35, 44, 92, 18],
-    "d3dwa-weights": [11, 0, 19, 20, 19, 18],
-    "d3dwa-dr": [43, 36, 42, 42, 67, 98],
-    "dqdwa": [10, 2, 22, 15, 1, 22],
+    "dqdwa": {
+        0: [21, 9, 1, 18, 23, 24],
+        1: [20, 2, 7, 4, 13, 19],
+        2: [22, 10, 10, 18, 18, 5],
+    },
+    "d3dwa-weights": {
+        0: [4, 9, 5, 23, 22, 23],
+        1: [17, 20, 7, 17, 2, 19],
+        2: [22, 22, 18, 19, 18, 1],
+        3: [18, 8, 12, 16, 2, 11],
+        4: [13, 6, 9, 19, 17, 16],
+    },
+    "d3dwa": {
+        0: [52, 59, 72, 78, 13, 29],
+        1: [19, 3, 14, 48, 57, 12],
+        2: [44, 59, 10, 13, 59, 19],
+        3: [34, 7, 80, 22, 43, 11],
+        4: [71, 98, 24, 50, 61, 6],
+    },
+    "d3dwa-dr": {
+        0: [99, 34, 86, 29, 74, 12],
+        1: [11, 23, 23, 83, 47, 19],
+        2: [97, 97, 92, 92, 97, 13],
+        3: [17, 17, 0, 6, 20, 2],
+        4: [27, 42, 25, 74, 25, 12],
+    },
 }
-"""Greedy action index of each shipped policy for each of OBSERVATIONS, recorded from the
-weights in policies/. After shipping a new policy on purpose, regenerate them with
+"""Greedy action index of each shipped seed for each of OBSERVATIONS, recorded from the
+weights in policies/. After shipping new seeds on purpose, regenerate them with
 ``python tests/learning/test_shipped_policies.py`` and paste its output here."""
 
+SEEDS = [(m, k) for m in LEARNED for k in seed_dirs(default_policy_path(m))]
 
-def greedy_actions(method: str) -> list[int]:
-    """The shipped policy's greedy action index for each of OBSERVATIONS."""
-    policy, _, _ = load_policy(default_policy_path(method), expected_actions=LEARNED[method])
+
+def greedy_actions(method: str, seed: int) -> list[int]:
+    """The shipped seed's greedy action index for each of OBSERVATIONS."""
+    path = seed_dirs(default_policy_path(method))[seed]
+    policy, _, _ = load_policy(path, expected_actions=LEARNED[method])
     return [int(policy(obs)) for obs in OBSERVATIONS]
 
 
 @pytest.mark.parametrize("method", list(LEARNED))
-def test_shipped_policy_loads_with_its_action_set(method: str) -> None:
-    path = default_policy_path(method)
-    assert path.is_dir(), f"no shipped policy in {path}"
+def test_every_learned_method_ships_its_seeds_of_one_experiment(method: str) -> None:
+    folder = default_policy_path(method)
+    seeds = seed_dirs(folder)
+    need = SHORT_OF_TARGET.get(method, MIN_SEEDS)
+    assert len(seeds) >= need, f"{folder}: {len(seeds)} training seeds, need {need}"
+    assert not (folder / "meta.json").exists()  # no single policy beside the seeds
+    check_one_experiment(folder, seeds)  # one config (but the seed) and one action set
+    budgets = {load_train_config(p / "config.json").total_steps for p in seeds.values()}
+    assert len(budgets) == 1
+
+
+@pytest.mark.parametrize(("method", "seed"), SEEDS)
+def test_shipped_seed_loads_with_its_action_set_and_travels_with_its_run(method, seed):
+    path = seed_dirs(default_policy_path(method))[seed]
     policy, actions, meta = load_policy(path, expected_actions=LEARNED[method])
     assert meta["method"] == method and actions.size == LEARNED[method].size
     assert meta["agent"] == ("dqdwa" if method == "dqdwa" else "d3qn")
     names = {p.name for p in path.iterdir()}
-    assert {"meta.json", "config.json", "learning_curve.png"} <= names
+    assert {"meta.json", "config.json", "learning_curve.png", "summary.json"} <= names
     assert not names & {"replay.npz", "training_state.json", "training_state.pt"}
-    assert load_train_config(path / "config.json").method == method
+    config = load_train_config(path / "config.json")
+    assert config.method == method and config.seed == seed
+    summary = json.loads((path / "summary.json").read_text())
+    assert summary["status"] == "done" and summary["env_steps"] >= config.total_steps
     assert set(json.loads((path / "meta.json").read_text())["files"]) <= names
     obs = np.array([0.5, 0.1, 0.2, 0.0] + [0.6] * 8)
     assert 0 <= policy(obs) < actions.size
-    controller = make_controller(method)
-    index, action = controller(obs)
-    assert action == actions.decode(index)
 
 
-@pytest.mark.parametrize("method", list(LEARNED))
-def test_shipped_policy_chooses_the_recorded_actions(method: str) -> None:
-    assert set(GOLDEN_ACTIONS) == set(LEARNED)
-    assert greedy_actions(method) == GOLDEN_ACTIONS[method]
-    controller = make_controller(method)  # what evaluation runs: the same shipped weights
-    assert [controller(obs)[0] for obs in OBSERVATIONS] == GOLDEN_ACTIONS[method]
+@pytest.mark.parametrize(("method", "seed"), SEEDS)
+def test_shipped_seed_chooses_the_recorded_actions(method: str, seed: int) -> None:
+    assert {(m, k) for m in GOLDEN_ACTIONS for k in GOLDEN_ACTIONS[m]} == set(SEEDS)
+    assert greedy_actions(method, seed) == GOLDEN_ACTIONS[method][seed]
+    path = seed_dirs(default_policy_path(method))[seed]
+    controller = make_controller(method, path)  # what evaluation runs: the same weights
+    assert [controller(obs)[0] for obs in OBSERVATIONS] == GOLDEN_ACTIONS[method][seed]
 
 
 if __name__ == "__main__":
     print("GOLDEN_ACTIONS = {")
     for name in LEARNED:
-        print(f"    {name!r}: {greedy_actions(name)},")
+        seeds = seed_dirs(default_policy_path(name))
+        print(f"    {name!r}: {{")
+        for k in seeds:
+            print(f"        {k}: {greedy_actions(name, k)},")
+        print("    },")
     print("}")
