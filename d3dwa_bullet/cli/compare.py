@@ -39,13 +39,7 @@ def _groups_of(row: dict[str, Any], shipped: dict[str, str]) -> list[str]:
 
 def cmd_compare(args: argparse.Namespace) -> int:
     # start-up cost: SciPy's bootstrap (~0.5 s); no simulator, no torch
-    from d3dwa_bullet.evaluation.results import (
-        check_results_dir,
-        completion,
-        read_meta,
-        read_results,
-        row_key,
-    )
+    from d3dwa_bullet.evaluation.results import check_results_dir, completion, job_rows
     from d3dwa_bullet.evaluation.seed_tables import (
         check_not_mixed,
         improvement,
@@ -62,8 +56,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if not (out / "results.csv").is_file():
         raise ResultsError(f"{out}: not a results directory (no results.csv)")
     check_results_dir(out)
-    keys = {tuple(k) for k in read_meta(out).get("jobs", [])}
-    rows = [r for r in read_results(out) if not keys or row_key(r) in keys]
+    rows = job_rows(out)
     check_not_mixed(rows, str(out / "results.csv"))
     present = {r["method"] for r in rows}
     for m in (a, b):

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import CheckpointError, ConfigError
+from d3dwa_bullet.evaluation.results import differences
 from d3dwa_bullet.methods import FIXED, default_policy_path
 from d3dwa_bullet.seed_dirs import parse_seeds, seed_dirs, seed_of
 
@@ -60,15 +61,6 @@ def _experiment(folder: Path) -> dict[str, Any]:
     return found
 
 
-def _differences(a: Any, b: Any, prefix: str = "") -> list[str]:
-    if isinstance(a, dict) and isinstance(b, dict):
-        out = []
-        for k in sorted(a.keys() | b.keys()):
-            out += _differences(a.get(k), b.get(k), f"{prefix}{k}.")
-        return out
-    return [] if a == b else [f"{prefix.rstrip('.')} {a!r} vs {b!r}"]
-
-
 def check_one_experiment(folder: Path, seeds: dict[int, Path]) -> None:
     """CheckpointError unless every seed folder was trained under one config and action set."""
     items = list(seeds.items())
@@ -77,7 +69,9 @@ def check_one_experiment(folder: Path, seeds: dict[int, Path]) -> None:
     first, first_dir = items[0]
     reference = _experiment(first_dir)
     for k, path in items[1:]:
-        diffs = _differences(reference, _experiment(path))
+        diffs = [
+            f"{name} {a!r} vs {b!r}" for name, a, b in differences(reference, _experiment(path))
+        ]
         if diffs:
             shown = "; ".join(diffs[:3]) + ("; ..." if len(diffs) > 3 else "")
             raise CheckpointError(

@@ -27,8 +27,8 @@ from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.results import (
     check_results_dir,
     completion,
+    job_rows,
     read_meta,
-    read_results,
     row_key,
 )
 from d3dwa_bullet.evaluation.seed_tables import check_not_mixed, per_seed_table, seed_tables
@@ -121,8 +121,7 @@ def open_results(out: str | os.PathLike[str]) -> tuple[Path, dict[str, Any], lis
     meta = read_meta(out)
     if "jobs" not in meta or "settings" not in meta:
         raise ResultsError(f"{out / 'meta.json'}: missing 'jobs' or 'settings'")
-    keys = {tuple(k) for k in meta["jobs"]}
-    rows = [r for r in read_results(out) if row_key(r) in keys]
+    rows = job_rows(out, meta)
     check_not_mixed(rows, str(out / "results.csv"))
     return out, meta, rows
 

@@ -197,7 +197,7 @@ def check_same_run(
     if "config" in meta and meta["config"] != here:
         diffs = "; ".join(
             f"{name} {old!r} there, {new!r} here"
-            for name, old, new in _differences(meta["config"], here)
+            for name, old, new in differences(meta["config"], here)
         )
         raise ResultsError(
             f"{out / 'meta.json'}: its episodes ran with another episode config ({diffs}); "
@@ -221,12 +221,12 @@ def check_same_run(
             )
 
 
-def _differences(old: Any, new: Any, prefix: str = "") -> list[tuple[str, Any, Any]]:
+def differences(old: Any, new: Any, prefix: str = "") -> list[tuple[str, Any, Any]]:
     """(dotted name, old value, new value) of each leaf where two JSON values differ."""
     if isinstance(old, dict) and isinstance(new, dict):
         out = []
         for k in sorted(old.keys() | new.keys()):
-            out += _differences(old.get(k), new.get(k), f"{prefix}{k}.")
+            out += differences(old.get(k), new.get(k), f"{prefix}{k}.")
         return out
     return [] if old == new else [(prefix.rstrip("."), old, new)]
 
@@ -292,6 +292,14 @@ def order_results(out: Path, keys: Sequence[Key]) -> bool:
         return False
     atomic_write_bytes(path, ordered)
     return True
+
+
+def job_rows(out: Path, meta: Mapping[str, Any] | None = None) -> list[dict[str, Any]]:
+    """The rows of results.csv that belong to the last run's jobs (meta.json "jobs"; every
+    row if meta.json lists none). meta: the directory's meta.json if already read."""
+    meta = read_meta(out) if meta is None else meta
+    keys = {tuple(k) for k in meta.get("jobs", [])}
+    return [r for r in read_results(out) if not keys or row_key(r) in keys]
 
 
 def completion(out: Path, rows: Sequence[dict[str, Any]] | None = None) -> tuple[int, int]:

@@ -23,7 +23,7 @@ from typing import Any
 from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.failures import MODES, SYMPTOMS, classify
 from d3dwa_bullet.evaluation.jobs import log_name
-from d3dwa_bullet.evaluation.results import load_log, read_meta, read_results, row_key
+from d3dwa_bullet.evaluation.results import job_rows, load_log, row_key
 from d3dwa_bullet.evaluation.sweep import PROFILES
 from d3dwa_bullet.methods import LABELS
 
@@ -32,8 +32,7 @@ def failure_records(out: Path) -> list[dict[str, Any]]:
     """One record per (noise, method): episodes, failures, modes, symptoms."""
     if not (out / "results.csv").is_file():
         raise ResultsError(f"{out}: no results.csv")
-    keys = {tuple(k) for k in read_meta(out).get("jobs", [])}
-    rows = [r for r in read_results(out) if not keys or row_key(r) in keys]
+    rows = job_rows(out)
     groups: dict[tuple[str, str], list[dict[str, Any]]] = defaultdict(list)
     for r in rows:
         groups[(r["noise"], r["method"])].append(r)
