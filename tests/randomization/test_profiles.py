@@ -16,7 +16,7 @@ from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.noise_config import NoiseConfig
 from randomization import episode_noise, list_profiles, load_profile
 
-SHIPPED = ["harsh", "none", "paper", "real"]
+SHIPPED = ["harsh", "none", "paper", "real", "wide"]
 
 
 def real_dict() -> dict[str, Any]:
@@ -65,7 +65,7 @@ def test_real_samples_stay_in_declared_ranges() -> None:
         assert 1.0 <= c.pose_fix.rate_hz <= 2.0
 
 
-@pytest.mark.parametrize("name", SHIPPED)
+@pytest.mark.parametrize("name", ["none", "paper", "real", "harsh"])
 def test_harsh_is_worse_than_real_which_is_worse_than_none(name: str) -> None:
     rank = {"none": 0, "paper": 1, "real": 2, "harsh": 3}[name]
     c = load_profile(name).sample(np.random.default_rng(0))
@@ -200,3 +200,22 @@ def test_bad_profile_names_file_parameter_and_value(
 def test_sample_needs_a_generator() -> None:
     with pytest.raises(ProfileError, match="Generator"):
         load_profile("real").sample(np.random.RandomState(0))  # type: ignore[arg-type]
+
+
+def test_wide_spans_none_to_the_top_of_harsh() -> None:
+    """`wide` (the d3dwa-dr recipe's training range) reaches from off to harsh's extremes."""
+    rng = np.random.default_rng(0)
+    wide = [load_profile("wide").sample(rng) for _ in range(400)]
+    harsh = [load_profile("harsh").sample(rng) for _ in range(400)]
+    for field in ("range_std", "dropout_prob", "spurious_prob"):
+        w = [getattr(c.lidar, field) for c in wide]
+        h = [getattr(c.lidar, field) for c in harsh]
+        assert min(w) < 0.05 * max(h), field  # near off
+        assert max(w) > 0.9 * max(h), field  # up to the top of harsh
+    assert {c.latency.steps for c in wide} == {0, 1, 2, 3}
+    assert max(c.slip.level_mean for c in wide) > 0.09 > 0.01 > min(c.slip.level_mean for c in wide)
+    assert {c.lidar.dropout_kinds for c in wide} == {
+        (0.0, 1.0, 0.0),
+        (0.1, 0.7, 0.2),
+        (0.2, 0.5, 0.3),
+    }
