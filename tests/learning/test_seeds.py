@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -12,6 +13,7 @@ import d3dwa_bullet.learning.training.seeds as seeds_module
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.errors import ConfigError, TrainingError
 from d3dwa_bullet.learning.training import TrainConfig, load_train_config, train
+from d3dwa_bullet.learning.training.run_dir import write_config
 from d3dwa_bullet.learning.training.seeds import train_seeds
 from d3dwa_bullet.resources import configs_dir, policies_dir
 from d3dwa_bullet.seed_dirs import parse_seeds
@@ -171,3 +173,25 @@ def test_seeds_as_ray_tasks_write_the_runs_a_local_run_writes(tiny: str, tmp_pat
 def test_ray_without_seeds_is_refused(tmp_path: Path, capsys) -> None:
     assert main(["train", "--method", "d3dwa", "--ray", "local", "--out", str(tmp_path)]) == 2
     assert "--seeds" in capsys.readouterr().err
+
+
+def test_resume_restarts_a_seed_stopped_before_its_first_checkpoint(
+    tiny: str, tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
+    """A seed killed before its first checkpoint holds a config and logs but nothing to go
+    on from: --resume trains it again from step 0 instead of refusing it."""
+    out = tmp_path / "runs"
+    config = _config(tiny, total_steps=40)
+    train_seeds(config, out, [0], progress=False)
+    reference = (out / "seed-0" / "episodes.csv").read_text()
+    run = out / "seed-1"
+    run.mkdir(parents=True)
+    write_config(run, replace(config, seed=1))  # what a killed seed-1 leaves behind
+    (run / "episodes.csv").write_text("stale\n")
+    (run / "metrics.jsonl").write_text('{"step": 7, "tag": "x", "value": 1}\n')
+    done = train_seeds(config, out, [0, 1], resume=True, progress=False)
+    assert [(o.seed, o.status) for o in done] == [(0, "skipped"), (1, "done")]
+    assert "stopped before its first checkpoint" in capsys.readouterr().err
+    episodes = (run / "episodes.csv").read_text()
+    assert "stale" not in episodes and episodes.splitlines()[0] == reference.splitlines()[0]
+    assert json.loads((run / "summary.json").read_text())["env_steps"] >= 40

@@ -18,13 +18,15 @@ Layout::
                                + learning_curve.png, no replay buffer
 
 A new run refuses a directory that already holds one; a resumed run needs its own
-``config.json`` and ``checkpoints/latest``, and a config that differs from the saved one
-only in ``total_steps``.
+``config.json`` and a config that differs from the saved one only in ``total_steps``, and
+goes on from ``checkpoints/latest`` (a run that stopped before its first checkpoint starts
+again from step 0).
 """
 
 from __future__ import annotations
 
 import json
+import shutil
 import time
 from datetime import UTC, datetime
 from pathlib import Path
@@ -89,10 +91,21 @@ def resume_config(out: Path, config: TrainConfig | None) -> TrainConfig:
                 f"{out / CONFIG_FILE}: resuming with a config that differs in "
                 f"{diff}; only total_steps may change on resume"
             )
-    latest = checkpoint_dir(out, "latest")
-    if not (latest / META_FILE).exists():
-        raise ConfigError(f"{latest}: no checkpoint to resume from")
     return config
+
+
+def has_checkpoint(out: Path) -> bool:
+    """Whether the run in ``out`` has saved its ``latest`` checkpoint."""
+    return (checkpoint_dir(out, "latest") / META_FILE).exists()
+
+
+def clear_before_first_checkpoint(out: Path) -> None:
+    """Empty the logs and events of a run that stopped before its first checkpoint, so
+    that it starts again from step 0: what a resume truncates a run to, for a run with no
+    checkpoint (its config stays; the rest is rewritten)."""
+    for name in LOG_FILES:
+        (out / name).unlink(missing_ok=True)
+    shutil.rmtree(out / TENSORBOARD_DIR, ignore_errors=True)
 
 
 def config_bytes(config: TrainConfig) -> bytes:

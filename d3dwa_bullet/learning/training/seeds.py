@@ -26,7 +26,7 @@ from d3dwa_bullet.evaluation.backends import check_address, ray_session
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.learning.training.checkpoints import export_policy
 from d3dwa_bullet.learning.training.config import TrainConfig, check_selection_rule
-from d3dwa_bullet.learning.training.run_dir import SUMMARY_FILE, checkpoint_dir
+from d3dwa_bullet.learning.training.run_dir import SUMMARY_FILE
 from d3dwa_bullet.learning.training.trainer import train
 from d3dwa_bullet.seed_dirs import seed_dir
 
@@ -88,7 +88,7 @@ def train_seeds(
         if resume and _complete(run, config.total_steps):
             outcomes.append(_finish(SeedOutcome(seed, run, "skipped"), config, export, on_seed))
         else:
-            todo.append((seed, run, resume and checkpoint_dir(run, "latest").is_dir()))
+            todo.append((seed, run, resume and (run / "config.json").exists()))
     order = {seed: i for i, seed in enumerate(seeds)}
     if ray_address is not None:
         outcomes += _train_on_ray(config, todo, ray_address, export, on_seed)

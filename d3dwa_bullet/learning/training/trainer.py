@@ -65,6 +65,14 @@ class Trainer:
         self.latest = run_dir.checkpoint_dir(self.out, "latest")
         if resume:
             config = run_dir.resume_config(self.out, config)
+            if not run_dir.has_checkpoint(self.out):
+                print(
+                    f"d3dwa: {self.out} stopped before its first checkpoint; "
+                    "training it again from step 0",
+                    file=sys.stderr,
+                )
+                run_dir.clear_before_first_checkpoint(self.out)
+                resume = False
         else:
             config = run_dir.check_new_run(self.out, config)
         self.config = config
