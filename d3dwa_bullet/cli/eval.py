@@ -67,7 +67,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     # start-up cost: the evaluation imports the simulator (pybullet) and the planner (numba)
     from d3dwa_bullet.evaluation.backends import check_address
     from d3dwa_bullet.evaluation.jobs import Job, evaluate, make_noise, world_figures
-    from d3dwa_bullet.evaluation.policy_runs import method_runs
+    from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
     from d3dwa_bullet.evaluation.report import eval_markdown, figure_seeds, seeds_markdown
     from d3dwa_bullet.methods import check_method, make_controller
 
@@ -97,6 +97,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         "seeds": seeds, "noise": args.noise,
         "policy_seeds": {m: [r.policy_seed for r in runs if r.method == m and
                              r.policy_seed is not None] for m in methods},
+        "policy_digests": policy_digests(runs),
     }  # fmt: skip
     if policy:
         settings["policy"] = str(Path(policy).resolve())

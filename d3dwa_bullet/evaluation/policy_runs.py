@@ -9,7 +9,9 @@ with no policy.
 
 The seeds of one method must be one experiment: trained under the same config (all but
 the seed) and the same action set; a folder mixing configs is refused, naming both seeds
-and what differs.
+and what differs. :func:`policy_digests` names the weights each run drives, so that a
+resumed evaluation can refuse rows driven by other weights (a policy folder replaced by
+new training).
 """
 
 from __future__ import annotations
@@ -26,6 +28,8 @@ from d3dwa_bullet.methods import FIXED, default_policy_path
 from d3dwa_bullet.seed_dirs import parse_seeds, seed_dirs, seed_of
 
 ALL = "all"
+POLICY_DATA_FILES = ("weights.pt", "table.npy")
+"""The file that holds a policy's parameters (D3QN, DQDWA); its SHA-256 is in meta.json."""
 
 
 @dataclass(frozen=True)
@@ -122,3 +126,27 @@ def method_runs(
             "to choose from"
         )
     return runs
+
+
+def policy_digests(runs: Sequence[PolicyRun]) -> dict[str, str]:
+    """Per learned run, ``<method>`` or ``<method>/seed-<k>``: the SHA-256 of its weights
+    (or Q-table) as its meta.json records it ('' if the folder has none)."""
+    digests = {}
+    for run in runs:
+        if run.method in FIXED:
+            continue
+        folder = Path(run.policy) if run.policy is not None else default_policy_path(run.method)
+        name = run.method if run.policy_seed is None else f"{run.method}/seed-{run.policy_seed}"
+        digests[name] = _data_digest(folder)
+    return digests
+
+
+def _data_digest(folder: Path) -> str:
+    try:
+        files = json.loads((folder / "meta.json").read_text(encoding="utf-8")).get("files", {})
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, AttributeError):
+        return ""
+    entry = next(
+        (files[f] for f in POLICY_DATA_FILES if isinstance(files, dict) and f in files), {}
+    )
+    return str(entry.get("sha256", "")) if isinstance(entry, dict) else ""

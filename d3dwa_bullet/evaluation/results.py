@@ -22,7 +22,7 @@ A run into a directory that already holds rows may resume it or extend it (more 
 worlds or seeds), never shrink or mix it: :func:`check_same_run` refuses a run whose jobs
 leave out rows of results.csv (meta.json and the pages would then describe fewer rows than
 the file holds) or whose episodes would be computed otherwise than the rows already there
-(another episode config, world file, time limit or policy).
+(another episode config, world file, time limit, policy, or a policy's weights).
 """
 
 from __future__ import annotations
@@ -211,6 +211,14 @@ def check_same_run(
                 f"command has {settings.get(key)!r}; use the same value to resume, or another "
                 "--out directory"
             )
+    old, now = before.get("policy_digests", {}), settings.get("policy_digests", {})
+    changed = sorted(k for k in old.keys() & now.keys() if old[k] != now[k])
+    if changed:
+        raise ResultsError(
+            f"{out / 'meta.json'}: its {', '.join(changed)} episodes were driven by other "
+            "weights than the policy this command loads (retrained or replaced since); use "
+            "another --out directory"
+        )
     sources = dict(zip(before.get("worlds", []), before.get("world_sources", []), strict=False))
     new = dict(zip(settings.get("worlds", []), settings.get("world_sources", []), strict=False))
     for name in sorted(sources.keys() & new.keys()):

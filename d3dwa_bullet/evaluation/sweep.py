@@ -46,7 +46,7 @@ from d3dwa_bullet.errors import ConfigError, UnknownNameError
 from d3dwa_bullet.evaluation.jobs import Job, evaluate, noise_config_json
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.plotting import sweep_figure
-from d3dwa_bullet.evaluation.policy_runs import method_runs
+from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
 from d3dwa_bullet.evaluation.results import CSV_FIELDS, completion, read_results, row_key
 from d3dwa_bullet.evaluation.seed_tables import condition_table
 from d3dwa_bullet.evaluation.stats import Series, group_series
@@ -326,11 +326,13 @@ def run_sweep(
 ) -> tuple[list[dict[str, Any]], bool]:
     """Run (or resume) a sweep into out; returns (rows, complete). When complete, writes
     sweep.md and (with figures) figures/sweep_*.png."""
-    for run in method_runs(settings.methods, policy, settings.policy_seeds):
+    runs = method_runs(settings.methods, policy, settings.policy_seeds)
+    for run in runs:
         make_controller(run.method, run.policy)  # fail fast on a missing policy
     out = Path(out)
     jobs = sweep_jobs(settings, policy)
     meta = {"kind": "sweep", "command": command} | settings.to_dict()
+    meta["policy_digests"] = policy_digests(runs)
     if policy:
         meta["policy"] = str(Path(policy).resolve())
     evaluate(jobs, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta)

@@ -8,11 +8,15 @@ from pathlib import Path
 
 import pytest
 
-from d3dwa_bullet.errors import CheckpointError, ConfigError
-from d3dwa_bullet.evaluation.policy_runs import PolicyRun, method_runs
+from d3dwa_bullet.episode import EpisodeConfig
+from d3dwa_bullet.errors import CheckpointError, ConfigError, ResultsError
+from d3dwa_bullet.evaluation.jobs import Job, evaluate
+from d3dwa_bullet.evaluation.policy_runs import PolicyRun, method_runs, policy_digests
+from d3dwa_bullet.evaluation.results import check_same_run
 from d3dwa_bullet.learning.agents.checkpoint import save_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
+from d3dwa_bullet.world.registry import load_world
 
 CONFIG = {"method": "d3dwa", "total_steps": 1000, "seed": 0, "agent": {"lr": 0.0003, "seed": 0}}
 
@@ -70,3 +74,25 @@ def test_seeds_of_another_config_or_action_set_are_refused(tmp_path):
     with pytest.raises(CheckpointError, match=r"seed-1 was trained under another config or "
                        r"action set than seed-0 \(actions"):  # fmt: skip
         method_runs(["d3dwa"], str(mixed))
+
+
+def test_digests_name_each_seeds_weights(tmp_path):
+    folder = seed_folder(tmp_path)
+    runs = method_runs(["dwa3", "d3dwa"], str(folder))
+    digests = policy_digests(runs)
+    assert list(digests) == ["d3dwa/seed-0", "d3dwa/seed-1", "d3dwa/seed-2"]
+    meta = json.loads((folder / "seed-1" / "meta.json").read_text())
+    assert digests["d3dwa/seed-1"] == meta["files"]["weights.pt"]["sha256"]
+    assert len(set(digests.values())) == 3  # three seeds, three different networks
+
+
+def test_a_resumed_evaluation_refuses_rows_driven_by_other_weights(one_second_world, tmp_path):
+    """Retraining a method replaces its seed folders' weights; rows its old weights drove
+    must not be mixed with the new ones under the same key."""
+    jobs = [Job(load_world(one_second_world), "dwa1", 0, "none")]
+    evaluate(jobs, tmp_path, progress=False, settings={"policy_digests": {"d3dwa/seed-0": "a"}})
+    keys = [j.key for j in jobs]
+    same = {"policy_digests": {"d3dwa/seed-0": "a", "d3dwa/seed-1": "b"}}  # extended: fine
+    check_same_run(tmp_path, keys, EpisodeConfig(), same)
+    with pytest.raises(ResultsError, match=r"its d3dwa/seed-0 episodes were driven by other"):
+        check_same_run(tmp_path, keys, EpisodeConfig(), {"policy_digests": {"d3dwa/seed-0": "c"}})
