@@ -25,6 +25,7 @@ from d3dwa_bullet.evaluation.failures import MODES, SYMPTOMS, classify
 from d3dwa_bullet.evaluation.jobs import log_name
 from d3dwa_bullet.evaluation.results import job_rows, load_log, row_key
 from d3dwa_bullet.evaluation.sweep import PROFILES
+from d3dwa_bullet.io import atomic_savefig
 from d3dwa_bullet.methods import LABELS
 
 
@@ -115,7 +116,7 @@ def figure(records: Sequence[dict[str, Any]], noises: Sequence[str], path: Path)
     fig.legend(loc="upper center", ncol=len(MODES), fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0, 1, 0.92))
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=130)
+    atomic_savefig(fig, path, dpi=130)
     plt.close(fig)
     return path
 

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from d3dwa_bullet.io import atomic_savefig
 from d3dwa_bullet.learning.training.logs import read_metrics
 from d3dwa_bullet.methods import LABELS
 from d3dwa_bullet.seed_dirs import seed_dirs
@@ -71,7 +72,7 @@ def figure(runs: Sequence[Path], out: Path) -> Path:
                  fontsize=9)  # fmt: skip
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=130)
+    atomic_savefig(fig, out, dpi=130)
     plt.close(fig)
     return out
 
