@@ -17,9 +17,16 @@ import numpy as np
 
 from d3dwa_bullet.evaluation.metrics import body_clearance, posture_displacement, trajectory_length
 from d3dwa_bullet.methods import Controller
-from d3dwa_bullet.params import ObservationParams, PlannerParams, SimParams, TerminationParams
+from d3dwa_bullet.params import (
+    ObservationParams,
+    PlannerParams,
+    RecoveryParams,
+    SimParams,
+    TerminationParams,
+)
 from d3dwa_bullet.planning.observation import build_observation, goal_in_body
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult, plan
+from d3dwa_bullet.planning.recovery import Recovery, RecoveryCommand
 from d3dwa_bullet.sim.lidar import LidarParams
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.scan import LaserScan, scan_points_body
@@ -43,7 +50,10 @@ LOG_FIELDS = (
     "ws",
     "tau",
     "fallback",
+    "recovery",
 )
+"""Per-step log columns; ``recovery`` is 0 when the controller and planner drove the step,
+else the 1-based index of the recovery behaviour in ``params.RECOVERY_BEHAVIOURS``."""
 
 
 @dataclass(frozen=True)
@@ -55,6 +65,13 @@ class EpisodeConfig:
     observation: ObservationParams = field(default_factory=ObservationParams)
     termination: TerminationParams = field(default_factory=TerminationParams)
     lidar: LidarParams = field(default_factory=LidarParams)
+    recovery: RecoveryParams | None = None
+    """The recovery layer around the controller (beyond the paper; None = the paper's stack)."""
+
+    @property
+    def recovery_name(self) -> str:
+        """The ``--recovery`` name of this config: "none" or the recipe's kind."""
+        return "none" if self.recovery is None else self.recovery.kind
 
 
 @dataclass
@@ -71,12 +88,16 @@ class EpisodeResult:
     min_clearance_m: float
     steps: int
     noise: str = "none"
+    recovery: str = "none"
+    """The recovery layer the episode ran with (``--recovery``)."""
     log: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     observations: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)), repr=False)
 
     def summary(self) -> dict[str, Any]:
-        """The JSON/CSV row: world, method, seed, outcome, time_s, tl_m, pd_rad, min_clearance_m, steps."""
-        return {
+        """The JSON/CSV row: world, method, seed, noise, outcome, time_s, tl_m, pd_rad,
+        min_clearance_m, steps, and recovery when a recovery layer ran (a paper-track row keeps
+        the paper track's columns)."""
+        row = {
             "world": self.world,
             "method": self.method,
             "seed": self.seed,
@@ -88,6 +109,9 @@ class EpisodeResult:
             "min_clearance_m": round(self.min_clearance_m, 4),
             "steps": self.steps,
         }
+        if self.recovery != "none":
+            row["recovery"] = self.recovery
+        return row
 
 
 def observation_of(pose, velocity, goal, points: np.ndarray, config: EpisodeConfig) -> np.ndarray:
@@ -153,6 +177,17 @@ class Episode:
         self.obstacle_distance = math.inf
         """Smallest true valid lidar range at the last observe(), m (inf if none)."""
         self.last_plan = None
+        self.recovery = (
+            Recovery(
+                config.recovery, config.planner, config.sim.control_period,
+                config.lidar.mount_x, config.lidar.fov,
+            )
+            if config.recovery is not None
+            else None
+        )  # fmt: skip
+        """The recovery layer around the controller (None on the paper's stack)."""
+        self.last_recovery: RecoveryCommand | None = None
+        """What the recovery layer drove at the last act() (None: the planner drove)."""
 
     def observe(self) -> np.ndarray:
         """Sense and judge termination; returns the (12,) observation (the last one if over)."""
@@ -188,22 +223,25 @@ class Episode:
         return self.obs
 
     def act(self, index: int, action: PlannerAction) -> PlanResult:
-        """Plan with action's weights and horizon, and drive one control period."""
+        """Plan with action's weights and horizon, and drive one control period; while the
+        recovery layer (if any) recovers, it drives instead and the action is not used."""
         if self.outcome is not None:
             raise RuntimeError(
                 f"episode is over ({self.outcome}); call observe() only before it ends"
             )
         est_pose, est_vel = self.estimate
         t0 = perf()
-        result = plan(
-            est_vel,
-            self.points,
-            goal_in_body(est_pose, self.world.goal),
-            action,
-            self.config.planner,
-        )
-        self.sim.clock.charge("planner", t0)
         t = self.sim.time
+        goal = goal_in_body(est_pose, self.world.goal)
+        rescue = None
+        if self.recovery is not None:
+            rescue = self.recovery.command(t, est_pose, self.points, (goal[0], goal[1]))
+        if rescue is None:
+            result = plan(est_vel, self.points, goal, action, self.config.planner)
+        else:
+            result = recovery_result(rescue)
+        self.last_recovery = rescue
+        self.sim.clock.charge("planner", t0)
         self.sim.step(result.v, result.w)
         self.observations.append(self.obs)
         self.rows.append(
@@ -216,6 +254,7 @@ class Episode:
                 index,
                 *action,
                 float(result.fallback),
+                0 if rescue is None else rescue.code,
             )
         )
         self.last_plan = result
@@ -240,6 +279,7 @@ class Episode:
             min_clearance_m=float(clearance.min()),
             steps=steps,
             noise=self.noise_name,
+            recovery=self.config.recovery_name,
             log=log | {"true_x": poses[:, 0], "true_y": poses[:, 1], "true_yaw": poses[:, 2]},
             observations=np.asarray(self.observations).reshape(-1, self.config.observation.dim),
         )
@@ -252,6 +292,19 @@ class Episode:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+_NO_SAMPLES = np.zeros((0, 2))
+_NOTHING = np.zeros(0)
+
+
+def recovery_result(command: RecoveryCommand) -> PlanResult:
+    """A recovery step as a PlanResult: its command, no samples (index -1, not a fallback)."""
+    return PlanResult(
+        v=command.v, w=command.w, index=-1, fallback=False, samples=_NO_SAMPLES,
+        progress=_NOTHING, clearance=_NOTHING, speed=_NOTHING,
+        admissible=np.zeros(0, dtype=bool), scores=_NOTHING,
+    )  # fmt: skip
 
 
 #: Called after each control step (the robot has moved): (episode, action index, action, plan).

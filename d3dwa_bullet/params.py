@@ -19,7 +19,7 @@ class RobotLimits:
     """Kinematic limits of the Kachaka base (paper Table "Parameter values")."""
 
     v_max: float = 0.4
-    """Max translational velocity, m/s (reverse is not used: v >= 0)."""
+    """Max translational velocity, m/s (the planner keeps v >= 0; only a recovery backs up)."""
     w_max: float = 2.0
     """Max angular velocity, rad/s."""
     a_max: float = 2.0
@@ -174,3 +174,87 @@ class SimParams:
     @property
     def control_period(self) -> float:
         return 1.0 / self.control_hz
+
+
+RECOVERY_KINDS = ("none", "nav2")
+"""``--recovery`` values: no recovery layer (the paper's stack), or Nav2's progress checker
+and recovery sequence adapted to Kachaka (docs/design.md#recovery)."""
+RECOVERY_BEHAVIOURS = ("spin", "back_up")
+"""Recovery behaviours a sequence may hold; a per-step log codes them 1, 2 (0 = none)."""
+
+
+@dataclass(frozen=True)
+class RecoveryParams:
+    """The recovery layer around any controller (docs/design.md#recovery); off when an
+    episode's ``EpisodeConfig.recovery`` is None.
+
+    Progress is checked on the *estimated* pose with the semantics of Nav2's
+    SimpleProgressChecker: the robot must leave a circle of ``radius`` about where it was
+    last known to progress within ``window`` seconds. When it does not, the next behaviour of
+    ``sequence`` runs (round robin), each motion checked against the planner's footprint
+    before and during it; after ``max_recoveries`` the layer gives up and the episode runs on.
+    """
+
+    kind: str = "nav2"
+    """Name of the recipe (a RECOVERY_KINDS value other than none)."""
+    radius: float = 0.5
+    """Progress checker: required movement radius, m (Nav2 default)."""
+    window: float = 10.0
+    """Progress checker: movement time allowance, s (Nav2 default)."""
+    sequence: tuple[str, ...] = RECOVERY_BEHAVIOURS
+    """Behaviours tried in turn, one per failed progress check (Nav2's wait dropped)."""
+    max_recoveries: int = 6
+    """Recoveries per episode before the layer gives up (Nav2's number_of_retries)."""
+    spin_angle: float = 1.57
+    """Spin: angle turned in place, rad (Nav2's spin_dist)."""
+    spin_rate: float = 1.0
+    """Spin: turn rate, rad/s (Nav2's max_rotational_vel; Kachaka allows 1.57)."""
+    backup_distance: float = 0.30
+    """Back-up: distance driven straight back, m (Nav2's backup_dist)."""
+    backup_speed: float = 0.15
+    """Back-up: speed, m/s (Nav2's backup_speed)."""
+    lookahead: float = 1.0
+    """Each step a behaviour checks the next this-many seconds of its motion (at most what
+    remains of it) and stops where that is not admissible, s (Nav2's simulate_ahead_time is
+    2 s, which makes a 1 rad/s spin all or nothing; 1 s lets it turn as far as it can)."""
+    behaviour_timeout: float = 10.0
+    """A behaviour that has not finished after this long is ended, s (Nav2's time_allowance)."""
+    memory: float = 30.0
+    """How long scan points are carried along by the estimated pose to check motions
+    toward what the 240 deg lidar cannot see now, s."""
+
+    def __post_init__(self) -> None:
+        if self.kind not in RECOVERY_KINDS[1:]:
+            raise ConfigError(
+                f"unknown recovery {self.kind!r}: choose one of {', '.join(RECOVERY_KINDS)}"
+            )
+        for name in ("radius", "window", "spin_angle", "spin_rate", "backup_distance",
+                     "backup_speed", "lookahead", "behaviour_timeout", "memory"):  # fmt: skip
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise ConfigError(f"recovery {name} must be a number > 0, got {value!r}")
+        unknown = [b for b in self.sequence if b not in RECOVERY_BEHAVIOURS]
+        if not self.sequence or unknown:
+            raise ConfigError(
+                f"recovery sequence {self.sequence!r}: name behaviours among "
+                f"{', '.join(RECOVERY_BEHAVIOURS)}"
+            )
+        if self.max_recoveries < 0:
+            raise ConfigError(f"recovery max_recoveries must be >= 0, got {self.max_recoveries}")
+
+
+def recovery_params(
+    kind: str, radius: float | None = None, window: float | None = None
+) -> RecoveryParams | None:
+    """The RecoveryParams of a ``--recovery`` name (None for "none"), with the progress
+    checker's radius (m) and window (s) when given. ConfigError naming a bad value."""
+    if kind not in RECOVERY_KINDS:
+        raise ConfigError(f"unknown recovery {kind!r}: choose one of {', '.join(RECOVERY_KINDS)}")
+    if kind == "none":
+        return None
+    base = RecoveryParams(kind=kind)
+    return RecoveryParams(
+        kind=kind,
+        radius=base.radius if radius is None else radius,
+        window=base.window if window is None else window,
+    )

@@ -105,7 +105,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         jobs, out, workers=workers_arg(args), config=config, progress=not args.json,
         ray_address=args.ray, settings=settings,
     )  # fmt: skip
-    table = eval_markdown(rows, methods, names, seeds, args.noise)
+    table = eval_markdown(rows, methods, names, seeds, args.noise, recovery=config.recovery_name)
     atomic_write_text(out / "table.md", table)
     atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names))
     figures = world_figures(out, worlds, methods, seeds[0], args.noise, figure_seeds(rows))

@@ -22,7 +22,7 @@ import warnings
 from collections.abc import Callable, Sequence
 
 from d3dwa_bullet.errors import ConfigError, WorldFormatError
-from d3dwa_bullet.params import PlannerParams, SimParams
+from d3dwa_bullet.params import RECOVERY_KINDS, PlannerParams, SimParams, recovery_params
 from d3dwa_bullet.world.model import World, goal_in_obstacle, start_in_collision
 from d3dwa_bullet.world.registry import load_world, world_file_kind
 
@@ -179,15 +179,59 @@ def add_episode_options(p: argparse.ArgumentParser) -> None:
         "--physics-hz", type=int, default=240, help="physics rate (multiple of --control-hz)"
     )
     p.add_argument("--control-hz", type=int, default=10, help="control (planning) rate")
+    add_recovery_options(p)
+
+
+def add_recovery_options(p: argparse.ArgumentParser) -> None:
+    """--recovery and the progress checker's --progress-radius / --progress-window."""
+    p.add_argument(
+        "--recovery",
+        default="none",
+        help="recovery layer around the controller: none (the paper's stack, default) or "
+        "nav2 (progress checker + spin / back-up, beyond the paper; docs/design.md#recovery)",
+    )
+    p.add_argument(
+        "--progress-radius", type=float, help="with --recovery: movement radius, m (default 0.5)"
+    )
+    p.add_argument(
+        "--progress-window", type=float, help="with --recovery: time allowance, s (default 10)"
+    )
+
+
+def recovery_arg(args: argparse.Namespace, control_period: float):
+    """The RecoveryParams of --recovery (None for none), its checker's radius and window
+    checked by option name: > 0, finite, a window no shorter than one control period."""
+    kind = getattr(args, "recovery", "none")
+    if kind not in RECOVERY_KINDS:
+        raise ConfigError(f"--recovery {kind!r}: choose one of {', '.join(RECOVERY_KINDS)}")
+    radius, window = getattr(args, "progress_radius", None), getattr(args, "progress_window", None)
+    for option, value in (("--progress-radius", radius), ("--progress-window", window)):
+        if value is None:
+            continue
+        if kind == "none":
+            raise ConfigError(f"{option} needs a recovery layer (--recovery nav2)")
+        if not (math.isfinite(value) and value > 0):
+            raise ConfigError(f"{option} must be a number > 0, got {value:g}")
+    if window is not None and window < control_period:
+        raise ConfigError(
+            f"--progress-window {window:g} s is shorter than one control step "
+            f"({control_period:g} s)"
+        )
+    return recovery_params(kind, radius, window)
 
 
 def episode_config(args: argparse.Namespace):
-    """EpisodeConfig from --physics-hz / --control-hz (checked: physics must divide evenly)."""
+    """EpisodeConfig from --physics-hz / --control-hz (checked: physics must divide evenly)
+    and, on commands that take it, --recovery (see :func:`recovery_arg`)."""
     # start-up cost: d3dwa_bullet.episode imports pybullet and scipy (~0.5 s)
     from d3dwa_bullet.episode import EpisodeConfig
 
     sim = SimParams(physics_hz=args.physics_hz, control_hz=args.control_hz)
-    return EpisodeConfig(sim=sim, planner=PlannerParams(control_period=sim.control_period))
+    return EpisodeConfig(
+        sim=sim,
+        planner=PlannerParams(control_period=sim.control_period),
+        recovery=recovery_arg(args, sim.control_period),
+    )
 
 
 def add_backend_options(p: argparse.ArgumentParser) -> None:

@@ -12,6 +12,7 @@ import argparse
 from d3dwa_bullet.cli.options import (
     ALLOW_EMPTY_HELP,
     add_backend_options,
+    add_recovery_options,
     default_methods,
     episode_config,
     list_arg,
@@ -58,6 +59,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print summary statistics as JSON")
     p.add_argument("--physics-hz", type=int, default=240, help="physics rate")
     p.add_argument("--control-hz", type=int, default=10, help="control (planning) rate")
+    add_recovery_options(p)
     p.set_defaults(func=cmd_sweep, interrupted="finished episodes are kept in results.csv")
 
 

@@ -20,12 +20,15 @@ from typing import Any, TextIO
 
 from d3dwa_bullet.cli.options import (
     ALLOW_EMPTY_HELP,
+    add_recovery_options,
     load_cli_world,
     parse_floats,
+    recovery_arg,
     time_limit_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
 from d3dwa_bullet.errors import BagFormatError, ConfigError, D3DWAError
+from d3dwa_bullet.params import SimParams
 from d3dwa_bullet.sim.scan import Pose2D
 from transfer.bag_writer import (
     BAG_VERSIONS,
@@ -200,6 +203,7 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
         f"(default {DEFAULT_BAG_VERSION}, which ROS 2 Humble reads; 9: Jazzy and later only)",
     )  # fmt: skip
     parser.add_argument("--overwrite", action="store_true", help="replace an existing bag")
+    add_recovery_options(parser)
 
 
 def run_record(
@@ -220,6 +224,12 @@ def run_record(
     extra = {}
     if time_limit_arg(getattr(args, "time_limit", None)) is not None:
         extra["time_limit"] = args.time_limit
+    recovery = recovery_arg(args, SimParams().control_period)
+    if recovery is not None:
+        # start-up cost: d3dwa_bullet.episode imports pybullet, needed only to record
+        from d3dwa_bullet.episode import EpisodeConfig
+
+        extra["config"] = EpisodeConfig(recovery=recovery)
     load_cli_world(args.world, getattr(args, "allow_empty", False), warn=False)
     target = Path(args.out)
     if target.exists() and not args.overwrite:

@@ -38,6 +38,7 @@ from d3dwa_bullet.evaluation.results import (
     read_results,
     row_key,
     save_log,
+    with_recovery,
     write_meta,
 )
 from d3dwa_bullet.methods import LABELS, make_controller
@@ -144,7 +145,12 @@ def evaluate(
     (ResultsError from :func:`~d3dwa_bullet.evaluation.results.check_same_run`).
     """
     out = Path(out)
-    check_results_dir(out, fields)
+    recovery = config.recovery_name
+    fields = with_recovery(fields, recovery)
+    settings = dict(settings or {"kind": "eval"})
+    if recovery != "none":
+        settings["recovery"] = recovery
+    check_results_dir(out, fields, recovery)
     drop_partial_row(out / "results.csv")
     done = {row_key(r) for r in read_results(out)}
     unique: dict[Key, Job] = {}
@@ -152,11 +158,11 @@ def evaluate(
         unique.setdefault(j.key, j)
     jobs = list(unique.values())
     keys = [j.key for j in jobs]
-    check_same_run(out, keys, config, settings or {"kind": "eval"})
+    check_same_run(out, keys, config, settings)
     todo = [j for j in jobs if j.key not in done]
     with open_backend(workers, ray_address, needed=bool(todo)) as run:
         (out / "logs").mkdir(parents=True, exist_ok=True)
-        write_meta(out, config, settings or {"kind": "eval"}, fields, keys)
+        write_meta(out, config, settings, fields, keys)
         if todo:
             for name in DERIVED_PAGES:
                 (out / name).unlink(missing_ok=True)

@@ -29,6 +29,7 @@ from d3dwa_bullet.evaluation.results import (
     completion,
     job_rows,
     read_meta,
+    recovery_of,
     row_key,
 )
 from d3dwa_bullet.evaluation.seed_tables import check_not_mixed, per_seed_table, seed_tables
@@ -38,7 +39,7 @@ from d3dwa_bullet.evaluation.sweep import (
     sweep_figures,
     sweep_markdown,
 )
-from d3dwa_bullet.evaluation.tables import paper_table
+from d3dwa_bullet.evaluation.tables import paper_table, recovery_note
 from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text
 from d3dwa_bullet.methods import LABELS
 from d3dwa_bullet.resources import policies_dir as shipped_policies_dir
@@ -68,12 +69,15 @@ def eval_markdown(
     seeds: Sequence[int],
     noise: str,
     title: str | None = None,
+    recovery: str = "none",
 ) -> str:
     """The evaluation page of ``d3dwa eval`` (table.md): success and time over training
-    seeds with their intervals, then the paper's layout pooled over every episode."""
+    seeds with their intervals, then the paper's layout pooled over every episode. With a
+    recovery layer the page says so under the title (the paper track's page is unchanged)."""
     span = f"{seeds[0]}..{seeds[-1]}" if seeds else "none"
     return (
         f"# {title or 'Evaluation: ' + ', '.join(worlds)}\n\n"
+        f"{recovery_note(recovery)}"
         f"Noise profile: `{noise}`; evaluation seeds: {span}.\n\n"
         "## Over training seeds\n\n"
         "A run is one training seed of a learned method (its episodes averaged) or one "
@@ -154,7 +158,7 @@ def write_table_page(
     methods, worlds, seeds, noise = eval_settings(meta)
     dest = Path(dest)
     dest.parent.mkdir(parents=True, exist_ok=True)
-    page = eval_markdown(rows, methods, worlds, seeds, noise, title)
+    page = eval_markdown(rows, methods, worlds, seeds, noise, title, recovery_of(out))
     page += f"\nFrom `{out / 'results.csv'}` ({len(rows)} episodes), d3dwa-bullet {__version__}.\n"
     atomic_write_text(dest, page)
     return dest
@@ -197,7 +201,8 @@ def _status(done: int, expected: int, command: str) -> str:
 def _eval_body(out: Path, meta: dict[str, Any], rows: list[dict], partial: bool) -> str:
     methods, worlds, seeds, noise = eval_settings(meta)
     note = " (PARTIAL)" if partial else ""
-    body = eval_markdown(rows, methods, worlds, seeds, noise, title=f"Tables{note}")
+    recovery = meta.get("settings", {}).get("recovery", "none")
+    body = eval_markdown(rows, methods, worlds, seeds, noise, f"Tables{note}", recovery)
     body = "#" + body.replace("\n#", "\n##")  # one level down inside the page
     sources = meta["settings"].get("world_sources", worlds)
     loaded = []
@@ -261,7 +266,8 @@ def _sweep_body(out: Path, meta: dict[str, Any], partial: bool) -> str:
     lines.append(f"\nProfiles: {', '.join(f'`{p}`' for p in settings.profiles)}.\n")
     lines.append(f"\n## Results{note}\n\n")
     by_name = {p.stem: p for p in figures}
-    tables = sweep_markdown(rows, settings)
+    tables = recovery_note(meta.get("settings", {}).get("recovery", "none"))
+    tables += sweep_markdown(rows, settings)
     # Put each axis's figure above its table.
     for name in [*settings.axes, "profiles"]:
         fig = by_name.get(f"sweep_{name}")

@@ -61,6 +61,10 @@ CSV_FIELDS = (
     "min_clearance_m",
     "steps",
 )
+RECOVERY_FIELD = "recovery"
+"""The column a run with a recovery layer adds (its ``--recovery`` name in every row); a
+paper-track directory has no such column, so its files keep the paper track's bytes, and
+its rows read as recovery "none"."""
 DERIVED_PAGES = ("table.md", "sweep.md", "report.md")
 """Pages computed from results.csv; removed while a run is incomplete."""
 
@@ -70,9 +74,19 @@ directory. policy_seed is the training seed of the policy that drove it (``seed-
 method's policy folder), None for a fixed method or a policy that is not one of a folder's
 seeds; it is an empty cell in results.csv."""
 KEY_FIELDS = ("world", "method", "policy_seed", "seed", "noise")
-EPISODE_SETTINGS = {"time_limit": "--time-limit", "policy": "--policy"}
+EPISODE_SETTINGS = {"time_limit": "--time-limit", "policy": "--policy", "recovery": "--recovery"}
 """Settings (meta.json "settings") that change an episode but not its key, with the option
 that sets them: one directory holds one value of each."""
+
+
+def with_recovery(fields: Sequence[str], recovery: str) -> tuple[str, ...]:
+    """The CSV columns of a run: fields, plus RECOVERY_FIELD when a recovery layer runs."""
+    return tuple(fields) if recovery == "none" else (*fields, RECOVERY_FIELD)
+
+
+def recovery_of(out: Path) -> str:
+    """The --recovery a results directory's episodes ran with ("none" for the paper track)."""
+    return str(read_meta(out).get("settings", {}).get("recovery", "none"))
 
 
 def row_key(row: Mapping[str, Any]) -> Key:
@@ -99,6 +113,7 @@ def read_results(out: Path) -> list[dict[str, Any]]:
             row["policy_seed"] = int(row["policy_seed"]) if row["policy_seed"] != "" else None
             for k in ("time_s", "tl_m", "pd_rad", "min_clearance_m"):
                 row[k] = float(row[k])
+            row[RECOVERY_FIELD] = row.get(RECOVERY_FIELD) or "none"
         except (TypeError, ValueError) as err:
             raise ResultsError(f"{path}: line {line}: not a results row ({err})") from err
     return rows
@@ -146,9 +161,13 @@ def csv_header(out: Path) -> list[str] | None:
         return next(csv.reader(fh), None)
 
 
-def check_results_dir(out: Path, fields: Sequence[str] | None = None) -> None:
+def check_results_dir(
+    out: Path, fields: Sequence[str] | None = None, recovery: str | None = None
+) -> None:
     """Refuse a results directory written by another format version, or (with fields) one
-    whose results.csv has other columns (e.g. a sweep's directory given to eval)."""
+    whose results.csv has other columns (e.g. a sweep's directory given to eval), or (with
+    recovery, the command's --recovery) one whose episodes ran with another recovery layer:
+    the paper track and a recovery track never share a directory."""
     meta = out / "meta.json"
     if meta.exists():
         fmt = read_meta(out).get("format")
@@ -161,6 +180,13 @@ def check_results_dir(out: Path, fields: Sequence[str] | None = None) -> None:
             f"{out}: results.csv without meta.json (older version?); use a new --out directory"
         )
     header = csv_header(out)
+    there = recovery_of(out) if header is not None else None
+    if recovery is not None and there is not None and there != recovery:
+        raise ResultsError(
+            f"{out / 'results.csv'}: its episodes ran with --recovery {there}, this command "
+            f"has --recovery {recovery}; one directory holds one recovery setting: use "
+            "another --out directory"
+        )
     if fields is not None and header is not None and header != list(fields):
         kind = read_meta(out).get("settings", {}).get("kind", "another command")
         raise ResultsError(
@@ -194,11 +220,11 @@ def check_same_run(
         )
     meta = read_meta(out)
     here = json.loads(json.dumps(asdict(config), default=str))
-    if "config" in meta and meta["config"] != here:
-        diffs = "; ".join(
-            f"{name} {old!r} there, {new!r} here"
-            for name, old, new in differences(meta["config"], here)
-        )
+    diffs = "; ".join(
+        f"{name} {old!r} there, {new!r} here"
+        for name, old, new in differences(meta.get("config", here), here)
+    )
+    if diffs:  # (a config without a newer field that is unset here is the same config)
         raise ResultsError(
             f"{out / 'meta.json'}: its episodes ran with another episode config ({diffs}); "
             "use the same options to resume, or another --out directory"

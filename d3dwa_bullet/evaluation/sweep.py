@@ -50,7 +50,7 @@ from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
 from d3dwa_bullet.evaluation.results import CSV_FIELDS, completion, read_results, row_key
 from d3dwa_bullet.evaluation.seed_tables import condition_table
 from d3dwa_bullet.evaluation.stats import Series, group_series
-from d3dwa_bullet.evaluation.tables import series_table
+from d3dwa_bullet.evaluation.tables import recovery_note, series_table
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.methods import check_method, make_controller
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
@@ -343,5 +343,6 @@ def run_sweep(
     if complete and figures:
         sweep_figures(rows, settings, out / "figures")
     if complete:
-        atomic_write_text(out / "sweep.md", "# Noise sweep\n\n" + sweep_markdown(rows, settings))
+        page = "# Noise sweep\n\n" + recovery_note(config.recovery_name)
+        atomic_write_text(out / "sweep.md", page + sweep_markdown(rows, settings))
     return rows, complete

@@ -100,3 +100,13 @@ def series_table(series: Series, header: Sequence[Any]) -> str:
             cells = [_cell(by_x[x]) if x in by_x else "" for x in header]
             lines.append(f"| {LABELS.get(m, m)} | {layout} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+def recovery_note(recovery: str) -> str:
+    """The line a page of a recovery-track directory opens with ('' on the paper track)."""
+    if recovery == "none":
+        return ""
+    return (
+        f"**Recovery layer `{recovery}`** (beyond the paper: progress checker and recovery "
+        "behaviours around every method, docs/design.md#recovery).\n\n"
+    )

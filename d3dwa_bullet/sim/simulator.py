@@ -225,10 +225,13 @@ class Simulator:
 
     # -- control -----------------------------------------------------------------------
     def limit_command(self, v: float, w: float) -> tuple[float, float]:
-        """Clip (v, w) to the velocity limits and to what the accelerations allow this period."""
+        """Clip (v, w) to the velocity limits and to what the accelerations allow this period.
+
+        Reverse down to -v_max is allowed: the planner never commands it (v >= 0), the
+        recovery layer's back-up does."""
         lim, dt = self.limits, self.sim.control_period
         v0, w0 = self.command
-        v = min(max(v, 0.0), lim.v_max)
+        v = min(max(v, -lim.v_max), lim.v_max)
         w = min(max(w, -lim.w_max), lim.w_max)
         v = min(max(v, v0 - lim.a_max * dt), v0 + lim.a_max * dt)
         w = min(max(w, w0 - lim.alpha_max * dt), w0 + lim.alpha_max * dt)
