@@ -7,6 +7,10 @@ fixed method's its evaluation seeds (:mod:`d3dwa_bullet.evaluation.seed_tables`)
 the shipped world groups (train, unseen, real) of a ``d3dwa eval`` directory, or the layout
 groups (shipped, generated) of a ``d3dwa sweep`` directory, each under its noise, then
 every layout under each noise, then all tasks.
+
+``--against DIR2`` takes B's runs from a second directory: the same method with and without
+the recovery layer (``d3dwa compare rec --against norec --methods dwa3,dwa3``), whose runs
+never share a directory. Each side is labelled with its recovery setting.
 """
 
 from __future__ import annotations
@@ -26,6 +30,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("dir", help="a results directory of `d3dwa eval` or `d3dwa sweep`")
     p.add_argument("--methods", required=True, help="A,B: two methods present in DIR")
+    p.add_argument(
+        "--against",
+        metavar="DIR2",
+        help="take B's runs from this results directory (e.g. the same method without the "
+        "recovery layer); A and B may then be the same method",
+    )
     p.add_argument("--json", action="store_true", help="print the records as JSON")
     p.set_defaults(func=cmd_compare)
 
@@ -37,50 +47,76 @@ def _groups_of(row: dict[str, Any], shipped: dict[str, str]) -> list[str]:
     return [f"{shipped.get(row['world'], 'custom')} ({noise})", f"all worlds ({noise})"]
 
 
-def cmd_compare(args: argparse.Namespace) -> int:
+def _side(out: Path, method: str, warn: bool = True) -> tuple[list[dict[str, Any]], str, bool]:
+    """(rows of method in results directory out, its recovery setting, complete?); one line
+    naming what is wrong with the directory otherwise."""
     # start-up cost: SciPy's bootstrap (~0.5 s); no simulator, no torch
-    from d3dwa_bullet.evaluation.results import check_results_dir, completion, job_rows
-    from d3dwa_bullet.evaluation.seed_tables import (
-        check_not_mixed,
-        improvement,
-        improvement_table,
+    from d3dwa_bullet.evaluation.results import (
+        check_results_dir,
+        completion,
+        job_rows,
+        recovery_of,
     )
-    from d3dwa_bullet.methods import LABELS, check_method
-    from d3dwa_bullet.world.registry import world_groups
+    from d3dwa_bullet.evaluation.seed_tables import check_not_mixed
 
-    names = [m.strip() for m in args.methods.split(",") if m.strip()]
-    if len(names) != 2 or names[0] == names[1]:
-        raise ConfigError(f"--methods needs two different methods A,B, got {args.methods!r}")
-    a, b = (check_method(m) for m in names)
-    out = Path(args.dir)
     if not (out / "results.csv").is_file():
         raise ResultsError(f"{out}: not a results directory (no results.csv)")
     check_results_dir(out)
     rows = job_rows(out)
     check_not_mixed(rows, str(out / "results.csv"))
     present = {r["method"] for r in rows}
-    for m in (a, b):
-        if m not in present:
-            raise ResultsError(
-                f"{out / 'results.csv'}: no rows of method {m!r} (it has {', '.join(sorted(present))})"
-            )
+    if method not in present:
+        raise ResultsError(
+            f"{out / 'results.csv'}: no rows of method {method!r} (it has {', '.join(sorted(present))})"
+        )
     done, expected = completion(out, rows)
-    if done != expected:
+    if done != expected and warn:
         print(
             f"d3dwa: warning: {out} is incomplete ({done} of {expected} episodes); "
             "comparing the finished ones",
             file=sys.stderr,
         )
+    return [r for r in rows if r["method"] == method], recovery_of(out), done == expected
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from d3dwa_bullet.evaluation.seed_tables import improvement, improvement_table
+    from d3dwa_bullet.methods import LABELS, check_method
+    from d3dwa_bullet.world.registry import world_groups
+
+    names = [m.strip() for m in args.methods.split(",") if m.strip()]
+    same = len(names) == 2 and names[0] == names[1]
+    if len(names) != 2 or (same and not args.against):
+        raise ConfigError(f"--methods needs two different methods A,B, got {args.methods!r}")
+    a, b = (check_method(m) for m in names)
+    out = Path(args.dir)
+    other = Path(args.against) if args.against else out
+    rows_a, rec_a, complete_a = _side(out, a)
+    rows_b, rec_b, complete_b = _side(other, b, warn=other != out)
+    # one method on both sides: its runs are told apart by their directory's recovery
+    key_a, key_b = (f"{a} [A]", f"{b} [B]") if same else (a, b)
+    labels = {
+        key_a: LABELS.get(a, a) + (f" + recovery {rec_a}" if rec_a != "none" else ""),
+        key_b: LABELS.get(b, b) + (f" + recovery {rec_b}" if rec_b != "none" else ""),
+    }
+    if same and labels[key_a] == labels[key_b]:
+        labels[key_a] += f" ({out})"
+        labels[key_b] += f" ({other})"
+    rows = [r | {"method": key_a} for r in rows_a] + [r | {"method": key_b} for r in rows_b]
     shipped = world_groups()
-    records = improvement(rows, a, b, lambda r: _groups_of(r, shipped))
+    records = improvement(rows, key_a, key_b, lambda r: _groups_of(r, shipped))
     if args.json:
-        print(json_text({"results": str(out), "a": a, "b": b, "complete": done == expected,
-                          "groups": records}))  # fmt: skip
+        print(json_text({"results": str(out), "against": str(other), "a": a, "b": b,
+                          "recovery_a": rec_a, "recovery_b": rec_b,
+                          "complete": complete_a and complete_b, "groups": records}))  # fmt: skip
     else:
-        la, lb = LABELS.get(a, a), LABELS.get(b, b)
+        la, lb = labels[key_a], labels[key_b]
+        source = f"{out / 'results.csv'}" + (
+            f" and {other / 'results.csv'}" if args.against else ""
+        )
         print(
             f"P({la} > {lb}) on success per task (world, noise); 95 % stratified bootstrap "
-            f"over runs; 0.5 = no difference. From {out / 'results.csv'}.\n"
+            f"over runs; 0.5 = no difference. From {source}.\n"
         )
-        print(improvement_table(records, a, b), end="")
+        print(improvement_table(records, key_a, key_b, labels), end="")
     return 0

@@ -75,6 +75,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         run = {
             "label": LABELS.get(args.method, args.method), "method": args.method,
             "outcome": result.outcome, "t": t, "x": log["true_x"], "y": log["true_y"], "tau": tau,
+            "recovery": log["recovery"],
         }  # fmt: skip
         try:
             trajectory_figure(world, [run], args.plot, colour_by=args.colour_by)

@@ -20,6 +20,11 @@ oscillation      the chosen action changes on more than SWITCH_SHARE (30 %) of s
                  a second: the policy or the planner dithers between choices
 ===============  ==========================================================================
 
+With a recovery layer (``--recovery``) the log marks its steps; :func:`recoveries` counts
+the recoveries an episode started and those that led to progress: after the recovery the
+estimated pose got farther than the progress radius (0.5 m) from where the recovery began,
+before the next recovery began or the episode ended (or the episode reached the goal).
+
 The primary mode of a failure is its outcome if it collided, else the first symptom in the
 order above, else ``slow`` (moving, no symptom, but not arriving in time). Latency cannot
 be read from a log; its share shows only as the profile the episode ran under.
@@ -45,6 +50,30 @@ TURNING = 0.1
 SYMPTOMS = ("drift", "fallback storm", "stall", "oscillation")
 MODES = ("collision", *SYMPTOMS, "slow")
 """Primary modes, in the order they are assigned."""
+
+
+PROGRESS_RADIUS = 0.5
+"""Movement that counts as progress after a recovery, m (the progress checker's default)."""
+
+
+def recoveries(log: Mapping[str, Any], radius: float = PROGRESS_RADIUS) -> tuple[int, int]:
+    """(recoveries started, recoveries that led to progress) of one episode's log (0, 0 for
+    a log without a ``recovery`` column: the paper's stack)."""
+    codes = np.asarray(log.get("recovery", ()))
+    if codes.size == 0:
+        return 0, 0
+    on = codes > 0
+    starts = np.flatnonzero(on & ~np.concatenate(([False], on[:-1])))
+    if starts.size == 0:
+        return 0, 0
+    x, y = np.asarray(log["est_x"]), np.asarray(log["est_y"])
+    bounds = [*starts[1:], len(codes)]
+    progress = 0
+    for k, (i, stop) in enumerate(zip(starts, bounds, strict=True)):
+        moved = np.hypot(x[i:stop] - x[i], y[i:stop] - y[i])
+        last_one_won = k == len(starts) - 1 and str(log.get("outcome")) == "goal"
+        progress += bool(moved.size and moved.max() > radius) or last_one_won
+    return len(starts), progress
 
 
 def symptoms(log: Mapping[str, Any]) -> dict[str, float]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -17,6 +18,7 @@ from matplotlib.patches import Circle, Patch, Polygon  # noqa: E402
 
 from d3dwa_bullet.io import atomic_savefig  # noqa: E402
 from d3dwa_bullet.methods import LABELS, METHODS  # noqa: E402
+from d3dwa_bullet.params import RECOVERY_BEHAVIOURS  # noqa: E402
 from d3dwa_bullet.world.model import Cylinder, World, obstacle_outline  # noqa: E402
 
 OUTCOME_MARK = {"goal": "reached", "collision": "C: collision", "timeout": "T: timeout"}
@@ -53,6 +55,39 @@ def draw_path(
     return lc
 
 
+RECOVERY_COLOURS = {"spin": "#00c853", "back_up": "#00b8d4"}
+"""Colours of the steps each recovery behaviour drove: green and cyan, apart from the
+plasma and viridis maps the path is coloured with."""
+
+
+def draw_recoveries(ax: plt.Axes, x: np.ndarray, y: np.ndarray, codes: Any) -> set[str]:
+    """Draw the segments of a path (N + 1 poses) whose step (N codes, 0 = no recovery, k =
+    RECOVERY_BEHAVIOURS[k - 1]) a recovery drove; returns the behaviours drawn."""
+    if codes is None or len(codes) == 0:
+        return set()
+    codes = np.asarray(codes)
+    pts = np.column_stack((x, y)).reshape(-1, 1, 2)
+    segs = np.concatenate([pts[:-1], pts[1:]], axis=1)[: len(codes)]
+    codes = codes[: len(segs)]
+    drawn = set()
+    for k, behaviour in enumerate(RECOVERY_BEHAVIOURS, start=1):
+        mask = codes == k
+        if mask.any():
+            ax.add_collection(
+                LineCollection(segs[mask], colors=RECOVERY_COLOURS[behaviour], linewidths=5.0,
+                               zorder=4, capstyle="round")
+            )  # fmt: skip
+            drawn.add(behaviour)
+    # A spin turns in place, so its segments are dots: ring and number every recovery's start.
+    starts = np.flatnonzero((codes > 0) & ~np.concatenate(([False], codes[:-1] > 0)))
+    for n, i in enumerate(starts, start=1):
+        colour = RECOVERY_COLOURS[RECOVERY_BEHAVIOURS[int(codes[i]) - 1]]
+        ax.plot(x[i], y[i], marker="o", ms=11, mfc="none", mec=colour, mew=2.2, zorder=5)
+        ax.annotate(str(n), (x[i], y[i]), xytext=(6, 6), textcoords="offset points",
+                    fontsize=7, color="k", zorder=6)  # fmt: skip
+    return drawn
+
+
 def view_bounds(world: World, runs: Sequence[dict], margin: float = 0.3) -> tuple[float, ...]:
     """(xmin, ymin, xmax, ymax) of the world and every run's path, plus margin, m."""
     xmin, ymin, xmax, ymax = world.bounds(margin=margin)
@@ -71,7 +106,9 @@ def trajectory_figure(
     title: str | None = None,
 ) -> Path:
     """One panel per run, side by side: each run is a dict with keys
-    label, outcome, t, x, y, tau (arrays, s and m). colour_by: "time" or "tau".
+    label, outcome, t, x, y, tau (arrays, s and m), and optionally recovery (the per-step
+    log's codes: the steps a recovery behaviour drove are drawn over the path in its own
+    colour, RECOVERY_COLOURS). colour_by: "time" or "tau".
     """
     n = max(1, len(runs))
     xmin, ymin, xmax, ymax = view_bounds(world, runs)
@@ -89,12 +126,14 @@ def trajectory_figure(
         norm = matplotlib.colors.Normalize(vmin=0.0, vmax=max(tmax, 1e-3))
         cmap, label = "plasma", "elapsed time [s]"
     lc = None
+    drawn: set[str] = set()
     for ax, run in zip(axes[0], runs, strict=False):
         draw_world(ax, world)
         if len(run["x"]) > 1:
             lc = draw_path(
                 ax, run["x"], run["y"], run["tau"] if colour_by == "tau" else run["t"], norm, cmap
             )
+            drawn |= draw_recoveries(ax, run["x"], run["y"], run.get("recovery"))
         ax.set_xlim(xmin, xmax)
         ax.set_ylim(ymin, ymax)
         ax.set_title(
@@ -107,6 +146,8 @@ def trajectory_figure(
             Line2D([], [], marker=(3, 0, -90), color="k", ls="", label="start"),
             Line2D([], [], marker="*", color="red", ms=10, ls="", label="goal"),
             Patch(color="0.55", label="obstacle"),
+            *(Line2D([], [], color=RECOVERY_COLOURS[b], lw=4, label=f"recovery: {b}")
+              for b in RECOVERY_BEHAVIOURS if b in drawn),
         ],
         loc="best", fontsize=7, framealpha=0.8,
     )  # fmt: skip

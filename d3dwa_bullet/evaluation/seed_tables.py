@@ -223,9 +223,13 @@ def improvement(
     return records
 
 
-def improvement_table(records: Sequence[Mapping[str, Any]], a: str, b: str) -> str:
-    """The records of :func:`improvement` as Markdown."""
-    la, lb = LABELS.get(a, a), LABELS.get(b, b)
+def improvement_table(
+    records: Sequence[Mapping[str, Any]], a: str, b: str, labels: Mapping[str, str] | None = None
+) -> str:
+    """The records of :func:`improvement` as Markdown; labels: a's and b's column labels
+    where they are not the methods' (e.g. one method with and without recovery)."""
+    names = {**LABELS, **(labels or {})}
+    la, lb = names.get(a, a), names.get(b, b)
     lines = [
         f"| tasks | n | runs {la} | runs {lb} | P({la} > {lb}) | 95 % interval |",
         "|---|---:|---:|---:|---:|---|",

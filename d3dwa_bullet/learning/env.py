@@ -41,6 +41,10 @@ its true pose, the current scan and the rollout the planner chose at the last st
 mode and paces ``step`` to ``metadata["render_fps"]`` (the control rate, 10 Hz), so
 ``render()`` has nothing to return. Rendering never changes an episode: the same seed gives
 the same steps with or without it.
+
+``recovery="nav2"`` (or a ``RecoveryParams``) puts the recovery layer around the agent, as
+``--recovery`` does for ``d3dwa run`` (docs/design.md#recovery): while it recovers it drives
+and the action of that step is not used; ``info["recovery"]`` names the behaviour (else None).
 """
 
 from __future__ import annotations
@@ -48,6 +52,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import gymnasium as gym
@@ -59,7 +64,7 @@ from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.learning.render import RenderParams, TopDownCanvas, body_to_world, rollout_path
 from d3dwa_bullet.learning.reward import reward
 from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, TaskSampler
-from d3dwa_bullet.params import RewardParams
+from d3dwa_bullet.params import RecoveryParams, RewardParams, recovery_params
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
 from d3dwa_bullet.planning.planner import PlannerAction
 from d3dwa_bullet.timing import StageClock, perf
@@ -110,8 +115,12 @@ class D3DWAEnv(gym.Env):
         route_start_prob: float = 0.0,
         route_start_span: float = 0.8,
         render_mode: str | None = None,
+        recovery: str | RecoveryParams | None = None,
     ) -> None:
         super().__init__()
+        if recovery is not None:
+            params = recovery if isinstance(recovery, RecoveryParams) else recovery_params(recovery)
+            episode_config = replace(episode_config, recovery=params)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ConfigError(
                 f"render_mode {render_mode!r} is not one of {self.metadata['render_modes']}"
@@ -243,6 +252,7 @@ class D3DWAEnv(gym.Env):
             tau=planner_action.tau,
             weights=(planner_action.wp, planner_action.wc, planner_action.ws),
             fallback=bool(plan.fallback),
+            recovery=None if ep.last_recovery is None else ep.last_recovery.behaviour,
         )
         self.clock.charge("step", t0)
         if self.render_mode == "human":

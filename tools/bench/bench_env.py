@@ -6,7 +6,13 @@ this process (the figure that stays meaningful when other work shares the cores)
 whole run is repeated (--repeats, default 3) and the median repeat is reported, with the
 slowest and fastest beside it: on a shared virtual machine single runs vary by +-10 %.
 
+``--recovery nav2`` runs the episodes with the recovery layer; ``--recovery both`` runs every
+repeat without and with it, alternating, and reports the cost ratio (with / without, per
+control step, wall and CPU) measured in this one run. The recovery layer only acts where a
+robot stalls, so ``--worlds`` should hold some where DWA III does (US1, TS4, H2).
+
     python -m tools.bench.bench_env --json
+    python -m tools.bench.bench_env --recovery both --worlds TS1,US1,TS4,H2 --steps 600 --json
 """
 
 from __future__ import annotations
@@ -15,16 +21,18 @@ import argparse
 import json
 import time
 
-from d3dwa_bullet.episode import Episode
+from d3dwa_bullet.episode import Episode, EpisodeConfig
 from d3dwa_bullet.methods import make_controller
+from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.world.registry import load_world
 
 
-def bench(worlds: list[str], steps: int, method: str) -> dict:
+def bench(worlds: list[str], steps: int, method: str, recovery: str = "none") -> dict:
     controller = make_controller(method)
+    config = EpisodeConfig(recovery=recovery_params(recovery))
     total_steps, total_time, total_cpu = 0, 0.0, 0.0
     for name in worlds:
-        with Episode(load_world(name)) as ep:
+        with Episode(load_world(name), config=config) as ep:
             t0, c0 = time.perf_counter(), time.process_time()
             n = 0
             while n < steps:
@@ -42,6 +50,7 @@ def bench(worlds: list[str], steps: int, method: str) -> dict:
         "steps": total_steps,
         "worlds": worlds,
         "method": method,
+        "recovery": recovery,
         "real_time_factor": round(total_steps * 0.1 / total_time, 1),
     }
 
@@ -54,17 +63,33 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=300, help="max control steps per world")
     ap.add_argument("--method", default="dwa3")
     ap.add_argument("--repeats", type=int, default=3, help="whole runs; the median is reported")
+    ap.add_argument("--recovery", default="none", choices=("none", "nav2", "both"))
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
-    runs = sorted(
-        (bench(args.worlds.split(","), args.steps, args.method) for _ in range(args.repeats)),
-        key=lambda r: r["steps_per_s"],
-    )
-    out = runs[len(runs) // 2] | {
-        "repeats": args.repeats,
-        "slowest_steps_per_s": runs[0]["steps_per_s"],
-        "fastest_steps_per_s": runs[-1]["steps_per_s"],
-    }
+    worlds = args.worlds.split(",")
+    kinds = ("none", "nav2") if args.recovery == "both" else (args.recovery,)
+    runs: dict[str, list[dict]] = {k: [] for k in kinds}
+    for _ in range(args.repeats):  # alternating, so a busy spell hits both alike
+        for kind in kinds:
+            runs[kind].append(bench(worlds, args.steps, args.method, kind))
+    summary = {}
+    for kind, rs in runs.items():
+        rs.sort(key=lambda r: r["steps_per_s"])
+        summary[kind] = rs[len(rs) // 2] | {
+            "repeats": args.repeats,
+            "slowest_steps_per_s": rs[0]["steps_per_s"],
+            "fastest_steps_per_s": rs[-1]["steps_per_s"],
+        }
+    if args.recovery == "both":
+        off, on = summary["none"], summary["nav2"]
+        out = {
+            "off": off,
+            "on": on,
+            "cost_ratio_wall": round(off["steps_per_s"] / on["steps_per_s"], 3),
+            "cost_ratio_cpu": round(off["steps_per_cpu_s"] / on["steps_per_cpu_s"], 3),
+        }
+    else:
+        out = summary[kinds[0]]
     print(json.dumps(out) if args.json else "\n".join(f"{k:>16}: {v}" for k, v in out.items()))
 
 

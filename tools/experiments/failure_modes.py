@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import D3DWAError, ResultsError
-from d3dwa_bullet.evaluation.failures import MODES, SYMPTOMS, classify
+from d3dwa_bullet.evaluation.failures import MODES, SYMPTOMS, classify, recoveries
 from d3dwa_bullet.evaluation.jobs import log_name
 from d3dwa_bullet.evaluation.results import job_rows, load_log, row_key
 from d3dwa_bullet.evaluation.sweep import PROFILES
@@ -42,11 +42,15 @@ def failure_records(out: Path) -> list[dict[str, Any]]:
         modes: Counter[str] = Counter()
         seen: Counter[str] = Counter()
         in_goals: Counter[str] = Counter()
+        started = progressed = 0
         for r in rs:
             path = out / "logs" / log_name(row_key(r))
             if not path.is_file():
                 raise ResultsError(f"{path}: log of the episode is missing")
-            found = classify(load_log(path))
+            log = load_log(path)
+            found = classify(log)
+            n, good = recoveries(log)
+            started, progressed = started + n, progressed + good
             if r["outcome"] == "goal":
                 in_goals.update(found["symptoms"])
                 continue
@@ -58,6 +62,8 @@ def failure_records(out: Path) -> list[dict[str, Any]]:
             "modes": {m: modes[m] for m in MODES}, "symptoms": {s: seen[s] for s in SYMPTOMS},
             # the same symptoms among the successes: a symptom as common there explains nothing
             "symptoms_in_goals": {s: in_goals[s] for s in SYMPTOMS},
+            # recoveries started, and those after which the robot moved on (failures.py)
+            "recoveries": started, "recoveries_with_progress": progressed,
         })  # fmt: skip
     return records
 
@@ -70,8 +76,8 @@ def markdown(records: Sequence[dict[str, Any]], noises: Sequence[str]) -> str:
         + " | ".join(f"any {s}" for s in SYMPTOMS)
         + " | "
         + " | ".join(f"{s} in goals" for s in SYMPTOMS)
-        + " |",
-        "|---|---|" + "---:|" * (2 + len(MODES) + 2 * len(SYMPTOMS)),
+        + " | recoveries | recoveries with progress |",
+        "|---|---|" + "---:|" * (4 + len(MODES) + 2 * len(SYMPTOMS)),
     ]
     for noise in noises:
         for r in (r for r in records if r["noise"] == noise):
@@ -80,6 +86,7 @@ def markdown(records: Sequence[dict[str, Any]], noises: Sequence[str]) -> str:
             cells += [str(r["symptoms"][s] or "") for s in SYMPTOMS]
             goals = r["episodes"] - r["failures"]
             cells += [f"{r['symptoms_in_goals'][s]}/{goals}" if goals else "" for s in SYMPTOMS]
+            cells += [str(r["recoveries"]), str(r["recoveries_with_progress"])]
             label = LABELS.get(r["method"], r["method"])
             lines.append(f"| {noise} | {label} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
