@@ -18,7 +18,8 @@ from typing import Any
 import yaml
 
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.io import atomic_write_text, read_text
+from d3dwa_bullet.io import atomic_write_text
+from d3dwa_bullet.loading import load_yaml, parse_yaml
 from d3dwa_bullet.sim.noise_config import CONFIG_GROUPS, TABLE_PARAMS
 from d3dwa_bullet.sim.scan import Pose2D
 from randomization.profiles import PROFILE_VERSION, load_profile, profile_from_dict
@@ -108,7 +109,7 @@ def calibrate(
     """
     path = check_profile_path(out)
     base_profile = load_profile(base)
-    raw_base = yaml.safe_load(read_text(base_profile.source, ConfigError, "profile YAML"))
+    raw_base = load_yaml(base_profile.source, ConfigError, "profile YAML")
     bags: list[BagData] = [read_bag(p, topics=topics, mount=mount) for p in bag_paths]
     scan_fit = calibrate_scans(bags)
     motion_fit = calibrate_motion(bags)
@@ -169,7 +170,7 @@ def calibrate(
             else:
                 lines.append(f"    {f.name}: {_flow(value)}  # {comment}")
     text = "\n".join(lines) + "\n"
-    profile_from_dict(yaml.safe_load(text), str(path))  # it loads, or nothing is written
+    profile_from_dict(parse_yaml(text, ConfigError, str(path)), str(path))  # or nothing is written
     atomic_write_text(path, text)
     return CalibrationResult(
         path, scan_fit.scans, estimated, kept, scan_fit.notes, scan_fit, motion_fit

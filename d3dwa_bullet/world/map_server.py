@@ -25,10 +25,9 @@ from typing import Any
 
 import cv2
 import numpy as np
-import yaml
 
 from d3dwa_bullet.errors import WorldFormatError
-from d3dwa_bullet.io import read_text
+from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.world.model import DEFAULT_HEIGHT, Box, World, validate_task
 from d3dwa_bullet.world.sdf import DEFAULT_GOAL, DEFAULT_START
 
@@ -98,11 +97,7 @@ def load_map_world(
     """
     yaml_path = Path(yaml_path)
     where = str(yaml_path)
-    text = read_text(yaml_path, WorldFormatError, "map YAML")
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise WorldFormatError(f"{where}: cannot read map YAML: {err}") from err
+    data = load_yaml(yaml_path, WorldFormatError, "map YAML")
     if not isinstance(data, Mapping):
         raise WorldFormatError(f"{where}: top level must be a mapping, got {type(data).__name__}")
     if "image" not in data:

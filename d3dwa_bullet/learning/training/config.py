@@ -15,13 +15,12 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
 from d3dwa_bullet.learning.env import D3DWAEnv
 from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, resolve_world
+from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.methods import LEARNED
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
@@ -256,10 +255,7 @@ def check_scalar_types(cls: type, data: Mapping[str, Any], source: str, prefix: 
 def load_train_config(path: str | os.PathLike[str], **overrides: Any) -> TrainConfig:
     """A TrainConfig from a YAML (or JSON) file, with keyword overrides (None = keep)."""
     p = Path(path)
-    try:
-        data = yaml.safe_load(p.read_text())
-    except (OSError, yaml.YAMLError) as err:
-        raise ConfigError(f"{p}: cannot read the training config: {err}") from err
+    data = load_yaml(p, ConfigError, "training config")
     if data is not None and not isinstance(data, Mapping):
         raise ConfigError(
             f"{p}: expected a mapping of TrainConfig fields (method: ..., total_steps: ...), "
