@@ -85,7 +85,8 @@ MAX_TIME_LIMIT_S = Limit(3600.0, "an episode is a minute of simulated time; an h
 
 MAX_MAP_PIXELS = Limit(50_000_000, "a map_server image is decoded whole into memory")
 """Pixels of a map_server image, read from its PNG/PGM header before it is decoded: 50
-megapixels is a 7 km square at 1 m/px, or a 350 m square at the usual 5 cm/px."""
+megapixels is a 7 km square at 1 m/px, or a 350 m square at the usual 5 cm/px. Other
+image formats are left to OpenCV's own bound (2^30 pixels)."""
 
 MAX_MAP_BOXES = Limit(200_000, "each box is a PyBullet body")
 """Boxes a map_server image may become after merging runs of occupied pixels."""
@@ -127,16 +128,18 @@ def available_memory() -> int:
         return 2**62
 
 
-def check_weights(option: str, weights: list[float] | tuple[float, ...]) -> None:
-    """ConfigError unless every weight is a finite number >= 0 and their sum is finite and
+def check_weights(
+    option: str, weights: list[float] | tuple[float, ...], error: type[D3DWAError] = ConfigError
+) -> None:
+    """``error`` unless every weight is a finite number >= 0 and their sum is finite and
     > 0 (``[1e308, 1e308]`` overflows to inf: probabilities would come out NaN)."""
     if not all(
         isinstance(w, int | float) and not isinstance(w, bool) and math.isfinite(w) and w >= 0
         for w in weights
     ):
-        raise ConfigError(f"{option}: weights must be finite numbers >= 0, got {list(weights)}")
+        raise error(f"{option}: weights must be finite numbers >= 0, got {list(weights)}")
     total = sum(float(w) for w in weights)  # not fsum: it raises on overflow
     if not (math.isfinite(total) and total > 0):
-        raise ConfigError(
+        raise error(
             f"{option}: weights must have a finite sum > 0, got {list(weights)} (sum {total:g})"
         )

@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from d3dwa_bullet.errors import ConfigError, ProfileError
+from d3dwa_bullet.limits import check_weights
 from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.resources import profiles_dir
 from d3dwa_bullet.sim.noise_config import (
@@ -319,10 +320,7 @@ def _parse(group: str, name: str, spec: Any, where: str) -> Distribution:
                 f"{where}: weights must be a list of {len(options)} numbers, got {weights!r}"
             )
         w = np.array([_number(x, where, "weight") for x in weights], dtype=np.float64)
-        if (w < 0).any() or w.sum() <= 0:
-            raise ProfileError(
-                f"{where}: weights must be >= 0 with a positive sum, got {weights!r}"
-            )
+        check_weights(where, weights, ProfileError)  # >= 0, a finite positive sum
         return Choice(options, tuple(float(x) for x in w / w.sum()))
 
     if not isinstance(args, list) or len(args) != 2:

@@ -27,6 +27,7 @@ import cv2
 import numpy as np
 
 from d3dwa_bullet.errors import WorldFormatError
+from d3dwa_bullet.limits import MAX_MAP_BOXES, MAX_MAP_PIXELS
 from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.world.model import DEFAULT_HEIGHT, Box, World, validate_task
 from d3dwa_bullet.world.sdf import DEFAULT_GOAL, DEFAULT_START
@@ -84,6 +85,26 @@ def mask_to_boxes(occupied: np.ndarray) -> list[tuple[int, int, int, int]]:
     return sorted(boxes)
 
 
+def image_size(path: Path, where: str) -> tuple[int, int] | None:
+    """(width, height) of a PNG or a PGM/PPM/PBM image from its header, without decoding
+    it; None for another format or a header that cannot be read (left to the decoder)."""
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return None
+    if head.startswith(b"\x89PNG\r\n\x1a\n") and head[12:16] == b"IHDR":
+        return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+    if len(head) > 2 and head[:1] == b"P" and head[1:2] in b"123456":
+        # P<n>, then width and height as decimal text, with '#' comments to end of line
+        text = b"\n".join(line.split(b"#")[0] for line in head[2:].split(b"\n"))
+        fields = text.split()
+        if len(fields) >= 2 and fields[0].isdigit() and fields[1].isdigit():
+            return int(fields[0]), int(fields[1])
+        raise WorldFormatError(f"{where}: {path} has no readable PGM/PPM header")
+    return None
+
+
 def load_map_world(
     yaml_path: str | Path,
     start: tuple[float, float, float] | None = None,
@@ -133,6 +154,10 @@ def load_map_world(
     image_path = Path(str(data["image"]))
     if not image_path.is_absolute():
         image_path = yaml_path.parent / image_path
+    size = image_size(image_path, where) if image_path.is_file() else None
+    if size is not None:
+        MAX_MAP_PIXELS.check(f"{where}: image {image_path} ({size[0]} x {size[1]} px)",
+                             size[0] * size[1], "pixels", WorldFormatError)  # fmt: skip
     pixels = cv2.imread(str(image_path), cv2.IMREAD_GRAYSCALE) if image_path.is_file() else None
     if pixels is None:
         raise WorldFormatError(
@@ -143,7 +168,9 @@ def load_map_world(
     rows = pixels.shape[0]
     c, s = math.cos(oyaw), math.sin(oyaw)
     obstacles = []
-    for r0, r1, c0, c1 in mask_to_boxes(occupied):
+    boxes = mask_to_boxes(occupied)
+    MAX_MAP_BOXES.check(f"{where}: occupied regions", len(boxes), "boxes", WorldFormatError)
+    for r0, r1, c0, c1 in boxes:
         # map-frame centre: x grows with the column, y grows upwards from the bottom row
         lx = 0.5 * (c0 + c1 + 1) * resolution
         ly = (rows - 0.5 * (r0 + r1 + 1)) * resolution
