@@ -85,7 +85,7 @@ def mask_to_boxes(occupied: np.ndarray) -> list[tuple[int, int, int, int]]:
     return sorted(boxes)
 
 
-def image_size(path: Path, where: str) -> tuple[int, int] | None:
+def image_size(path: Path) -> tuple[int, int] | None:
     """(width, height) of a PNG or a PGM/PPM/PBM image from its header, without decoding
     it; None for another format or a header that cannot be read (left to the decoder)."""
     try:
@@ -101,7 +101,6 @@ def image_size(path: Path, where: str) -> tuple[int, int] | None:
         fields = text.split()
         if len(fields) >= 2 and fields[0].isdigit() and fields[1].isdigit():
             return int(fields[0]), int(fields[1])
-        raise WorldFormatError(f"{where}: {path} has no readable PGM/PPM header")
     return None
 
 
@@ -154,7 +153,7 @@ def load_map_world(
     image_path = Path(str(data["image"]))
     if not image_path.is_absolute():
         image_path = yaml_path.parent / image_path
-    size = image_size(image_path, where) if image_path.is_file() else None
+    size = image_size(image_path) if image_path.is_file() else None
     if size is not None:
         MAX_MAP_PIXELS.check(f"{where}: image {image_path} ({size[0]} x {size[1]} px)",
                              size[0] * size[1], "pixels", WorldFormatError)  # fmt: skip
