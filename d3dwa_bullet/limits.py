@@ -56,6 +56,12 @@ MAX_NESTING_DEPTH = Limit(32, "no file of this project nests deeper than 4 level
 reads (a training config's ``agent:`` block, a world's obstacle list) nests 4 levels; a
 document nested thousands of levels deep would otherwise end in a RecursionError."""
 
+MAX_ALIAS_NODES = Limit(10_000, "each YAML alias repeats its anchor's whole node")
+"""Nodes that YAML aliases (``*name``) may add to a document, each alias counted as the full
+size of the node it repeats. ``yaml.safe_dump`` writes an alias for a list used twice, so a
+few are ordinary; nine lines of nested aliases (the "billion laughs") would add 9^9.
+"""
+
 MAX_SEEDS = Limit(10_000, "one episode or training run per seed")
 """Seeds in one ``--seeds`` / ``--policy-seeds`` list or count (``0-4``, ``0,3,7``, or
 ``eval --seeds N``). Checked before a range is expanded, so ``0-99999999999`` never builds a

@@ -12,9 +12,10 @@ names the file:
   (:data:`~d3dwa_bullet.limits.MAX_DOCUMENT_BYTES`), before it is read
   (:func:`d3dwa_bullet.io.read_text`);
 - mappings and lists nested deeper than :data:`~d3dwa_bullet.limits.MAX_NESTING_DEPTH`;
-- YAML aliases (``*name``): an alias repeats its anchor's node, so nine lines of aliases
-  make a billion items (the "billion laughs"); no file of this project needs one. Anchors
-  alone are harmless and accepted;
+- YAML aliases (``*name``) that add more than
+  :data:`~d3dwa_bullet.limits.MAX_ALIAS_NODES` nodes: an alias repeats its anchor's node,
+  so nine lines of aliases make a billion items (the "billion laughs"). The few aliases
+  ``yaml.safe_dump`` writes for a list used twice load as before;
 - YAML tags beyond the safe ones (``!!python/object`` ...), as ``yaml.safe_load`` does.
 
 ``tests/test_loading.py`` fails if any other module calls ``yaml.safe_load``,
@@ -31,7 +32,12 @@ import yaml
 
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.io import read_text
-from d3dwa_bullet.limits import MAX_DOCUMENT_BYTES, MAX_NESTING_DEPTH, MAX_TEXT_BYTES
+from d3dwa_bullet.limits import (
+    MAX_ALIAS_NODES,
+    MAX_DOCUMENT_BYTES,
+    MAX_NESTING_DEPTH,
+    MAX_TEXT_BYTES,
+)
 
 
 class _Refused(yaml.YAMLError):
@@ -39,21 +45,37 @@ class _Refused(yaml.YAMLError):
 
 
 class _BoundedLoader(yaml.SafeLoader):
-    """``yaml.SafeLoader`` that refuses aliases and nesting deeper than the limit while it
-    composes the document, before anything is built."""
+    """``yaml.SafeLoader`` that refuses aliases adding too many nodes and nesting deeper
+    than the limit while it composes the document, before anything is built."""
 
     def __init__(self, stream: str) -> None:
         super().__init__(stream)
         self._depth = 0
+        self._alias_nodes = 0
+        self._sizes: dict[int, int] = {}  # id(node) -> nodes in it, aliases expanded
+
+    def _size(self, node: yaml.Node) -> int:
+        key = id(node)
+        if key not in self._sizes:  # memoised: a shared node is measured once
+            if isinstance(node, yaml.MappingNode):
+                children = [n for pair in node.value for n in pair]
+            else:
+                children = node.value if isinstance(node, yaml.SequenceNode) else []
+            self._sizes[key] = 1 + sum(self._size(child) for child in children)
+        return self._sizes[key]
 
     def compose_node(self, parent: Any, index: Any) -> Any:
         if self.check_event(yaml.AliasEvent):
             event = self.peek_event()
-            raise _Refused(
-                f"line {event.start_mark.line + 1}: alias *{event.anchor} refused (an alias "
-                "repeats another node, so a few lines can expand to billions of items; "
-                "write the value out)"
-            )
+            node = super().compose_node(parent, index)
+            self._alias_nodes += self._size(node)
+            if self._alias_nodes > MAX_ALIAS_NODES.value:
+                raise _Refused(
+                    f"line {event.start_mark.line + 1}: alias *{event.anchor} brings the nodes "
+                    f"that aliases repeat past {MAX_ALIAS_NODES.value} ({MAX_ALIAS_NODES.why}; "
+                    "a few lines of aliases can expand to billions of items)"
+                )
+            return node
         nested = self.check_event(yaml.SequenceStartEvent, yaml.MappingStartEvent)
         self._depth += nested
         try:

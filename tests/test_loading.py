@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 import pytest
+import yaml
 
 from d3dwa_bullet.errors import ConfigError, ProfileError, WorldFormatError
 from d3dwa_bullet.io import read_text
@@ -68,9 +69,16 @@ def test_an_alias_bomb_is_refused_fast_naming_the_file(tmp_path):
     path = tmp_path / "bomb.yaml"
     path.write_text(alias_bomb())
     start = time.perf_counter()
-    with pytest.raises(ProfileError, match=r"bomb\.yaml: .*alias \*a0 refused"):
+    with pytest.raises(ProfileError, match=r"bomb\.yaml: .*alias \*a\d brings the nodes .* past"):
         load_yaml(path, ProfileError, "profile YAML")
     assert time.perf_counter() - start < 2.0
+
+
+def test_the_aliases_yaml_safe_dump_writes_still_load():
+    shared = [1.0, 2.0]
+    text = yaml.safe_dump({"a": shared, "b": {"c": shared}})
+    assert "*id001" in text  # safe_dump repeats a shared list as an alias
+    assert parse_yaml(text, ConfigError, "s") == {"a": shared, "b": {"c": shared}}
 
 
 def test_anchors_without_aliases_and_ordinary_files_load():

@@ -42,7 +42,7 @@ def test_an_alias_bomb_profile_is_one_line_and_fast(tmp_path, capsys):
     start = time.perf_counter()
     line = refused(capsys, "run", "--world", "TS1", "--method", "dwa1", "--noise", bomb)
     assert time.perf_counter() - start < 2.0
-    assert f"{bomb}: not valid YAML: line 2: alias *a0 refused" in line
+    assert f"{bomb}: not valid YAML: line " in line and "brings the nodes that aliases" in line
 
 
 @pytest.mark.parametrize(
