@@ -9,18 +9,22 @@ like an ordinary ``open(path, "w")``. The parent directory must exist.
 
 :func:`read_text` reads a UTF-8 file the user named (a world, a profile, a map): a file of
 binary garbage or one that cannot be read is the caller's error class with one line that
-names the file, not a ``UnicodeDecodeError``.
+names the file, not a ``UnicodeDecodeError``. It reads only regular files (not ``/dev/zero``,
+a FIFO or a directory) and refuses a file over its size limit before reading it
+(:mod:`d3dwa_bullet.limits`); YAML and JSON go through :mod:`d3dwa_bullet.loading`.
 """
 
 from __future__ import annotations
 
 import os
 import secrets
+import stat
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, BinaryIO, Protocol
 
 from d3dwa_bullet.errors import D3DWAError
+from d3dwa_bullet.limits import MAX_TEXT_BYTES, Limit
 
 
 class SavesFigure(Protocol):
@@ -69,12 +73,25 @@ def atomic_savefig(fig: SavesFigure, path: str | os.PathLike[str], **kwargs: Any
     return _atomic_write(path, lambda fh: fig.savefig(fh, **kwargs))
 
 
-def read_text(path: str | os.PathLike[str], error: type[D3DWAError], what: str = "file") -> str:
-    """The text of a UTF-8 file, or ``error`` naming the file when it cannot be read or is
-    not text (what: the kind of file the user meant, for the message: "world file", ...)."""
+def read_text(
+    path: str | os.PathLike[str],
+    error: type[D3DWAError],
+    what: str = "file",
+    limit: Limit = MAX_TEXT_BYTES,
+) -> str:
+    """The text of a UTF-8 file, or ``error`` naming the file when it cannot be read, is not
+    a regular file, is larger than ``limit`` bytes or is not text (what: the kind of file
+    the user meant, for the message: "world file", ...)."""
     p = Path(path)
     try:
-        return p.read_text(encoding="utf-8")
+        if not stat.S_ISREG(os.stat(p).st_mode):  # before open: a FIFO would block it
+            raise error(f"{p}: not a regular file; a {what} must be one")
+        with p.open("rb") as fh:
+            limit.check(f"{p}", os.fstat(fh.fileno()).st_size, "bytes", error)
+            data = fh.read(int(limit.value) + 1)  # the file may have grown since fstat
+        limit.check(f"{p}", len(data), "bytes", error)
+        # newlines as a text-mode read gives them (\r\n and \r read as \n)
+        return data.decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")
     except UnicodeDecodeError as err:
         raise error(
             f"{p}: not a text {what} (byte {err.object[err.start]:#04x} at offset {err.start} "

@@ -12,6 +12,7 @@ import re
 from pathlib import Path
 
 from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.limits import MAX_SEED_VALUE, MAX_SEEDS
 
 SEED_DIR = "seed-{}"
 _SEED_NAME = re.compile(r"seed-(\d+)")
@@ -41,8 +42,9 @@ def parse_seeds(text: str, option: str = "--seeds") -> list[int]:
     """'0-4' -> [0, 1, 2, 3, 4]; '0,3,7' -> [0, 3, 7]; ranges and lists mix ('0-2,5').
 
     ConfigError naming ``option`` and the bad part for anything else (negative, empty,
-    reversed ranges, repeats)."""
-    seeds: list[int] = []
+    reversed ranges, repeats), and for more than ``MAX_SEEDS`` seeds or a seed over
+    ``MAX_SEED_VALUE`` (:mod:`d3dwa_bullet.limits`), counted before a range is expanded."""
+    ranges: list[range] = []
     for part in text.split(","):
         part = part.strip()
         try:
@@ -50,13 +52,16 @@ def parse_seeds(text: str, option: str = "--seeds") -> list[int]:
                 lo, hi = (int(x) for x in part.split("-", 1))
                 if hi < lo:
                     raise ValueError
-                seeds.extend(range(lo, hi + 1))
+                ranges.append(range(lo, hi + 1))
             else:
-                seeds.append(int(part))
+                ranges.append(range(int(part), int(part) + 1))
         except ValueError:
             raise ConfigError(
                 f"{option}: {part!r} in {text!r} is not a seed or a range like 0-4"
             ) from None
+    MAX_SEEDS.check(option, sum(len(r) for r in ranges), "seeds")
+    MAX_SEED_VALUE.check(option, max(r[-1] for r in ranges))
+    seeds = [s for r in ranges for s in r]
     if any(s < 0 for s in seeds):
         raise ConfigError(f"{option}: seeds must be >= 0, got {text!r}")
     if len(set(seeds)) != len(seeds):

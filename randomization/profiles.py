@@ -38,10 +38,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from d3dwa_bullet.errors import ConfigError, ProfileError
-from d3dwa_bullet.io import read_text
+from d3dwa_bullet.limits import check_weights
+from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.resources import profiles_dir
 from d3dwa_bullet.sim.noise_config import (
     CONFIG_GROUPS,
@@ -173,12 +173,7 @@ def load_profile(name_or_path: str | Path) -> Profile:
         path = Path(name_or_path)
         if not path.is_file():
             raise ProfileError(f"{path}: no such profile file")
-    text = read_text(path, ProfileError, "profile YAML")
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise ProfileError(f"{path}: not valid YAML: {err}") from err
-    return profile_from_dict(data, str(path))
+    return profile_from_dict(load_yaml(path, ProfileError, "profile YAML"), str(path))
 
 
 def profile_from_dict(data: Any, source: str) -> Profile:
@@ -325,10 +320,7 @@ def _parse(group: str, name: str, spec: Any, where: str) -> Distribution:
                 f"{where}: weights must be a list of {len(options)} numbers, got {weights!r}"
             )
         w = np.array([_number(x, where, "weight") for x in weights], dtype=np.float64)
-        if (w < 0).any() or w.sum() <= 0:
-            raise ProfileError(
-                f"{where}: weights must be >= 0 with a positive sum, got {weights!r}"
-            )
+        check_weights(where, weights, ProfileError)  # >= 0, a finite positive sum
         return Choice(options, tuple(float(x) for x in w / w.sum()))
 
     if not isinstance(args, list) or len(args) != 2:

@@ -18,7 +18,8 @@ from typing import Any
 import yaml
 
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.io import atomic_write_text, read_text
+from d3dwa_bullet.io import atomic_write_text
+from d3dwa_bullet.loading import load_yaml, parse_yaml
 from d3dwa_bullet.sim.noise_config import CONFIG_GROUPS, TABLE_PARAMS
 from d3dwa_bullet.sim.scan import Pose2D
 from randomization.profiles import PROFILE_VERSION, load_profile, profile_from_dict
@@ -70,8 +71,15 @@ class CalibrationResult:
         }
 
 
-def check_profile_path(out: str | Path) -> Path:
-    """The output path, refused (ConfigError) unless a .yaml/.yml file in an existing folder."""
+HEADER = "# Calibrated by `d3dwa calibrate`"
+"""The first line of every profile ``calibrate`` writes: what it may replace without --force."""
+
+
+def check_profile_path(out: str | Path, force: bool = False) -> Path:
+    """The output path, refused (ConfigError) unless a .yaml/.yml file in an existing folder
+    that is new, or a profile written by ``calibrate`` (its first line is HEADER), or any
+    regular file with ``force``: a training config or a hand-written profile is not replaced
+    by mistake."""
     path = Path(out)
     if path.suffix not in (".yaml", ".yml"):
         raise ConfigError(f"--out {path}: a profile file must end in .yaml or .yml")
@@ -79,7 +87,25 @@ def check_profile_path(out: str | Path) -> Path:
         raise ConfigError(f"--out {path}: is a directory; name the profile file")
     if not path.parent.is_dir():
         raise ConfigError(f"--out {path}: folder {path.parent} does not exist")
+    if path.exists() or path.is_symlink():
+        if not path.is_file():
+            raise ConfigError(f"--out {path}: exists and is not a regular file; name another")
+        with path.open("rb") as fh:
+            ours = fh.readline(len(HEADER) + 1).startswith(HEADER.encode())
+        if not (ours or force):
+            raise ConfigError(
+                f"--out {path}: exists and is not a profile written by `d3dwa calibrate`; "
+                "name another file, or pass --force to replace it"
+            )
     return path
+
+
+def comment_text(text: object) -> str:
+    """``text`` safe inside a one-line ``#`` comment: control characters (a newline in a
+    bag's folder name) escaped, so no name can end the comment and add YAML to the file."""
+    return "".join(
+        c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in str(text)
+    )
 
 
 def _flow(value: Any) -> str:
@@ -99,16 +125,18 @@ def calibrate(
     name: str | None = None,
     topics: TopicMap | None = None,
     mount: Pose2D | None = None,
+    force: bool = False,
 ) -> CalibrationResult:
     """Fit a profile to ``bag_paths`` on top of ``base`` and write it to ``out``.
 
-    Raises ``ConfigError`` for a bad ``out``, ``ProfileError`` for a bad base,
+    Raises ``ConfigError`` for a bad ``out`` (also an existing file that calibrate did not
+    write, unless ``force``), ``ProfileError`` for a bad base,
     ``BagFormatError`` for an unreadable bag, one without scans, or scans too few to
     estimate anything; in each case nothing is written.
     """
-    path = check_profile_path(out)
+    path = check_profile_path(out, force)
     base_profile = load_profile(base)
-    raw_base = yaml.safe_load(read_text(base_profile.source, ConfigError, "profile YAML"))
+    raw_base = load_yaml(base_profile.source, ConfigError, "profile YAML")
     bags: list[BagData] = [read_bag(p, topics=topics, mount=mount) for p in bag_paths]
     scan_fit = calibrate_scans(bags)
     motion_fit = calibrate_motion(bags)
@@ -122,10 +150,11 @@ def calibrate(
     name = name or path.stem
 
     lines = [
-        f"# Calibrated by `d3dwa calibrate` from {len(bags)} bag(s), {scan_fit.scans} scans:",
-        *(f"#   {b.path}" for b in bags),
-        f"# Base profile {base_name!r} ({base_profile.source}). Each parameter says how it was",
-        f"# estimated, or why it keeps the base's value. Use it as --noise {path}.",
+        f"{HEADER} from {len(bags)} bag(s), {scan_fit.scans} scans:",
+        *(f"#   {comment_text(b.path)}" for b in bags),
+        f"# Base profile {base_name!r} ({comment_text(base_profile.source)}). Each parameter "
+        "says how it was",
+        f"# estimated, or why it keeps the base's value. Use it as --noise {comment_text(path)}.",
         f"name: {_flow(name)}",
         f"version: {PROFILE_VERSION}",
         "description: "
@@ -169,7 +198,7 @@ def calibrate(
             else:
                 lines.append(f"    {f.name}: {_flow(value)}  # {comment}")
     text = "\n".join(lines) + "\n"
-    profile_from_dict(yaml.safe_load(text), str(path))  # it loads, or nothing is written
+    profile_from_dict(parse_yaml(text, ConfigError, str(path)), str(path))  # or nothing is written
     atomic_write_text(path, text)
     return CalibrationResult(
         path, scan_fit.scans, estimated, kept, scan_fit.notes, scan_fit, motion_fit

@@ -4,7 +4,8 @@ training config's ``noise:`` list; ``--json`` prints what was estimated and what
 
 Bad input (no LaserScan, too few scans, an unreadable bag, a bad ``--out``) ends in one
 ``d3dwa: error: ...`` line and exit 2, and no profile file: it is written atomically at
-the end. A robot that never stands still is not an error: the range noise then comes from
+the end. An existing ``--out`` is replaced only if calibrate wrote it, or with ``--force``
+(a training config named by mistake stays as it was). A robot that never stands still is not an error: the range noise then comes from
 line-fit residuals, and a note says so.
 """
 
@@ -31,6 +32,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--base", default="real",
         help="profile whose values the bags cannot inform are kept (default: real)",
     )  # fmt: skip
+    p.add_argument(
+        "--force", action="store_true",
+        help="replace --out even if it is not a profile written by calibrate",
+    )  # fmt: skip
     p.add_argument("--name", help="profile name (default: the --out file's stem)")
     p.add_argument("--mount", help="X,Y,YAW lidar pose in base_link (default: from tf)")
     p.add_argument(
@@ -50,7 +55,7 @@ def cmd_calibrate(args: argparse.Namespace, out: TextIO | None = None) -> int:
     mount = Pose2D(*parse_floats(args.mount, 3, "--mount")) if args.mount else None
     result = calibrate(
         args.bags, args.out, base=args.base, name=args.name,
-        topics=parse_topic_overrides(args.topic), mount=mount,
+        topics=parse_topic_overrides(args.topic), mount=mount, force=args.force,
     )  # fmt: skip
     notes = sys.stderr if args.json else out
     for note in result.notes:

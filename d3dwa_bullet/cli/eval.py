@@ -27,6 +27,7 @@ from d3dwa_bullet.cli.options import (
 from d3dwa_bullet.cli.output import check_out_dir, json_text
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.io import atomic_write_text
+from d3dwa_bullet.limits import MAX_EPISODES, MAX_SEED_VALUE, MAX_SEEDS
 from d3dwa_bullet.world.registry import world_names
 
 TABLE1_GROUPS = ("train", "unseen")
@@ -72,6 +73,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from d3dwa_bullet.methods import check_method, make_controller
 
     check_address(args.ray)
+    workers = workers_arg(args)
     config = episode_config(args)
     methods = [check_method(m) for m in list_arg(args.methods, "--methods", default_methods)]
     world_args = list_arg(args.worlds, "--worlds", lambda: world_names(*TABLE1_GROUPS))
@@ -79,8 +81,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
     worlds = [load_cli_world(w, args.allow_empty) for w in world_args]
     if args.seeds < 1:
         raise ConfigError(f"--seeds must be >= 1, got {args.seeds}")
+    MAX_SEEDS.check("--seeds", args.seeds, "seeds")
+    MAX_SEED_VALUE.check("--seed + --seeds - 1 (the last seed)", args.seed + args.seeds - 1)
     seeds = list(range(args.seed, args.seed + args.seeds))
     runs = method_runs(methods, policy, args.policy_seeds)
+    MAX_EPISODES.check("eval", len(worlds) * len(runs) * len(seeds), "episodes")
     for run in runs:  # fail fast on a missing policy or profile, before any episode runs
         make_controller(run.method, run.policy)
     make_noise(args.noise, seeds[0])
@@ -102,7 +107,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     if policy:
         settings["policy"] = str(Path(policy).resolve())
     rows = evaluate(
-        jobs, out, workers=workers_arg(args), config=config, progress=not args.json,
+        jobs, out, workers=workers, config=config, progress=not args.json,
         ray_address=args.ray, settings=settings,
     )  # fmt: skip
     table = eval_markdown(rows, methods, names, seeds, args.noise, recovery=config.recovery_name)

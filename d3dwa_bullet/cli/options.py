@@ -22,6 +22,7 @@ import warnings
 from collections.abc import Callable, Sequence
 
 from d3dwa_bullet.errors import ConfigError, WorldFormatError
+from d3dwa_bullet.limits import MAX_TIME_LIMIT_S, check_processes
 from d3dwa_bullet.params import RECOVERY_KINDS, PlannerParams, SimParams, recovery_params
 from d3dwa_bullet.world.model import World, goal_in_obstacle, start_in_collision
 from d3dwa_bullet.world.registry import load_world, world_file_kind
@@ -93,9 +94,12 @@ def policy_arg(policy: str | None, methods: Sequence[str]) -> str | None:
 
 
 def time_limit_arg(value: float | None, option: str = "--time-limit") -> float | None:
-    """--time-limit checked: None (the world's own) or a finite number of seconds > 0."""
+    """--time-limit checked: None (the world's own) or a finite number of seconds > 0, at
+    most ``MAX_TIME_LIMIT_S``."""
     if value is not None and not (math.isfinite(value) and value > 0):
         raise ConfigError(f"{option} must be a number of seconds > 0, got {value:g}")
+    if value is not None:
+        MAX_TIME_LIMIT_S.check(option, value, "s")
     return value
 
 
@@ -241,9 +245,12 @@ def add_backend_options(p: argparse.ArgumentParser) -> None:
 
 
 def workers_arg(args: argparse.Namespace) -> int:
-    """--workers, default all cores; refuses negative counts."""
+    """--workers, default all cores; refuses negative counts, and more local processes
+    than :func:`d3dwa_bullet.limits.max_processes` (Ray's workers are the cluster's)."""
     if args.workers < 0:
         raise ConfigError(f"--workers must be >= 0 (0 = all cores), got {args.workers}")
+    if getattr(args, "ray", None) in (None, "local"):
+        check_processes("--workers", args.workers)
     return args.workers or os.cpu_count() or 1
 
 

@@ -77,6 +77,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     )
 
     check_address(args.ray)
+    workers = workers_arg(args)
     settings = SweepSettings(
         methods=tuple(list_arg(args.methods, "--methods", default_methods)),
         worlds=tuple(split_list(args.worlds) if args.worlds is not None else SHIPPED_WORLDS),
@@ -92,7 +93,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         load_cli_world(w, args.allow_empty, warn=False)
     out = check_out_dir(args.out, subdirs=("logs", "figures"))
     rows, complete = run_sweep(
-        settings, out, workers=workers_arg(args), ray_address=args.ray,
+        settings, out, workers=workers, ray_address=args.ray,
         config=config, progress=not args.json, policy=policy,
         command=getattr(args, "command_line", ""),
     )  # fmt: skip

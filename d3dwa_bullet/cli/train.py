@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.limits import check_processes
 from d3dwa_bullet.resources import configs_dir
 
 
@@ -59,6 +60,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     # start-up cost: training imports torch (~1 s)
     from d3dwa_bullet.learning.training import (
         TrainConfig,
+        check_run_limits,
         export_policy,
         load_train_config,
         train,
@@ -68,6 +70,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         raise ConfigError(f"--total-steps must be >= 1, got {args.total_steps}")
     if args.n_envs is not None and args.n_envs < 0:
         raise ConfigError(f"--n-envs must be >= 1 (or 0: one per core), got {args.n_envs}")
+    if args.n_envs:
+        check_processes("--n-envs", args.n_envs)
     if args.seeds is not None:
         return _train_seeds(args)
     if args.ray is not None:
@@ -89,6 +93,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         config = load_train_config(configs_dir() / f"{args.method}.yaml", **overrides)
     else:
         config = TrainConfig(**{k: v for k, v in overrides.items() if v is not None})
+    if config is not None:
+        check_run_limits(config)
     if args.out:
         out = Path(args.out)
     else:
@@ -134,7 +140,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 def _train_seeds(args: argparse.Namespace) -> int:
     """``--seeds``: one run per seed under --out (``learning.training.seeds``)."""
     # start-up cost: training imports torch (~1 s)
-    from d3dwa_bullet.learning.training import load_train_config
+    from d3dwa_bullet.learning.training import check_run_limits, load_train_config
     from d3dwa_bullet.learning.training.seeds import SeedOutcome, train_seeds
     from d3dwa_bullet.seed_dirs import parse_seeds
 
@@ -150,6 +156,7 @@ def _train_seeds(args: argparse.Namespace) -> int:
     config = load_train_config(
         args.config, method=args.method, total_steps=args.total_steps, n_envs=args.n_envs
     )
+    check_run_limits(config)
     quiet = args.no_progress or args.json
 
     def report(o: SeedOutcome) -> None:

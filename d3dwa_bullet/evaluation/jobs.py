@@ -23,6 +23,7 @@ import numpy as np
 from tqdm import tqdm
 
 from d3dwa_bullet.episode import EpisodeConfig, EpisodeResult, run_episode
+from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.backends import open_backend
 from d3dwa_bullet.evaluation.results import (
     CSV_FIELDS,
@@ -41,6 +42,7 @@ from d3dwa_bullet.evaluation.results import (
     with_recovery,
     write_meta,
 )
+from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.methods import LABELS, make_controller
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.noise_config import NoiseConfig
@@ -107,7 +109,8 @@ def noise_config_json(config: NoiseConfig) -> str:
 def job_noise(job: Job) -> NoiseModel | None:
     """The NoiseModel of a job: its explicit config, else its profile, else None."""
     if job.noise_config is not None:
-        return NoiseModel(NoiseConfig.from_dict(json.loads(job.noise_config)), job.seed)
+        config = parse_json(job.noise_config, ConfigError, "Job.noise_config")
+        return NoiseModel(NoiseConfig.from_dict(config), job.seed)
     return make_noise(job.noise, job.seed)
 
 

@@ -16,7 +16,6 @@ new training).
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +23,7 @@ from typing import Any
 
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.evaluation.results import differences
+from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.methods import FIXED, default_policy_path
 from d3dwa_bullet.seed_dirs import parse_seeds, seed_dirs, seed_of
 
@@ -51,10 +51,9 @@ def _experiment(folder: Path) -> dict[str, Any]:
         path = folder / name
         if not path.is_file():
             continue
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-            raise CheckpointError(f"{path}: not readable JSON ({err})") from err
+        data = load_json(path, CheckpointError)
+        if not isinstance(data, dict):
+            raise CheckpointError(f"{path}: expected a JSON object, got {type(data).__name__}")
         if name == "config.json":
             data.pop("seed", None)
             if isinstance(data.get("agent"), dict):
@@ -143,8 +142,8 @@ def policy_digests(runs: Sequence[PolicyRun]) -> dict[str, str]:
 
 def _data_digest(folder: Path) -> str:
     try:
-        files = json.loads((folder / "meta.json").read_text(encoding="utf-8")).get("files", {})
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, AttributeError):
+        files = load_json(folder / "meta.json", CheckpointError).get("files", {})
+    except (CheckpointError, AttributeError):
         return ""
     entry = next(
         (files[f] for f in POLICY_DATA_FILES if isinstance(files, dict) and f in files), {}

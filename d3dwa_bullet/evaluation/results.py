@@ -42,6 +42,7 @@ import numpy as np
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text, read_text
+from d3dwa_bullet.loading import load_json, parse_json
 
 if TYPE_CHECKING:  # for annotations only: this module reads and writes files, runs nothing
     from d3dwa_bullet.episode import EpisodeResult
@@ -124,10 +125,7 @@ def read_meta(out: Path) -> dict[str, Any]:
     meta = out / "meta.json"
     if not meta.exists():
         return {}
-    try:
-        data = json.loads(read_text(meta, ResultsError, "JSON file"))
-    except json.JSONDecodeError as err:
-        raise ResultsError(f"{meta}: not valid JSON ({err})") from err
+    data = load_json(meta, ResultsError, "JSON file")
     if not isinstance(data, dict):
         raise ResultsError(f"{meta}: expected a JSON object, got {type(data).__name__}")
     return data
@@ -219,7 +217,7 @@ def check_same_run(
             f"({what}); list them too to extend that evaluation, or use another --out directory"
         )
     meta = read_meta(out)
-    here = json.loads(json.dumps(asdict(config), default=str))
+    here = parse_json(json.dumps(asdict(config), default=str), ResultsError, "episode config")
     diffs = "; ".join(
         f"{name} {old!r} there, {new!r} here"
         for name, old, new in differences(meta.get("config", here), here)

@@ -52,6 +52,7 @@ from d3dwa_bullet.evaluation.seed_tables import condition_table
 from d3dwa_bullet.evaluation.stats import Series, group_series
 from d3dwa_bullet.evaluation.tables import recovery_note, series_table
 from d3dwa_bullet.io import atomic_write_text
+from d3dwa_bullet.limits import MAX_EPISODES, MAX_LAYOUTS, MAX_LEVELS, MAX_SEEDS
 from d3dwa_bullet.methods import check_method, make_controller
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
 from d3dwa_bullet.world.model import World
@@ -114,8 +115,12 @@ class SweepSettings:
             low = 0 if name == "layouts" else 1
             if getattr(self, name) < low:
                 raise ConfigError(f"--{name} must be >= {low}, got {getattr(self, name)}")
+        MAX_LAYOUTS.check("--layouts", self.layouts, "layouts")
+        MAX_LEVELS.check("--levels", self.levels, "levels")
+        MAX_SEEDS.check("--seeds", self.seeds, "seeds")
         if not self.methods:
             raise ConfigError("a sweep needs at least one method")
+        MAX_EPISODES.check("sweep", episode_count(self, len(self.methods)), "episodes")
         for m in self.methods:
             check_method(m)
         for a in self.axes:
@@ -132,6 +137,15 @@ class SweepSettings:
         keys = {f for f in cls.__dataclass_fields__}
         values = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items() if k in keys}
         return cls(**values)
+
+
+def episode_count(settings: SweepSettings, runs: int) -> int:
+    """Episodes of the sweep for ``runs`` (method, training seed) pairs, counted without
+    building a world or a job (:func:`sweep_jobs` builds them)."""
+    worlds = len(settings.worlds) + len(settings.styles) * settings.layouts
+    extra = [p for p in settings.profiles if p != BASELINE]
+    n_conditions = 1 + len(settings.axes) * settings.levels + len(extra)
+    return worlds * runs * n_conditions * settings.seeds
 
 
 def conditions(settings: SweepSettings) -> list[Condition]:
@@ -169,6 +183,7 @@ def sweep_jobs(settings: SweepSettings, policy: str | None = None) -> list[Job]:
     """Every episode of the sweep: worlds x (methods x training seeds) x conditions x seeds."""
     seeds = range(settings.first_seed, settings.first_seed + settings.seeds)
     runs = method_runs(settings.methods, policy, settings.policy_seeds)
+    MAX_EPISODES.check("sweep", episode_count(settings, len(runs)), "episodes")
     return [
         Job(world, run.method, seed, c.noise, run.policy, c.noise_config,
             (("axis", c.axis), ("level", "" if c.level is None else c.level), ("layout", group)),

@@ -39,8 +39,12 @@ return a top-down (H, W, 3) uint8 RGB frame of the world, the robot's body and f
 its true pose, the current scan and the rollout the planner chose at the last step
 (``learning.render``); ``"human"`` runs the episodes in the PyBullet GUI instead of DIRECT
 mode and paces ``step`` to ``metadata["render_fps"]`` (the control rate, 10 Hz), so
-``render()`` has nothing to return. Rendering never changes an episode: the same seed gives
-the same steps with or without it.
+``render()`` has nothing to return; on Linux without a display (no DISPLAY or
+WAYLAND_DISPLAY) it is refused at construction. Rendering never changes an episode: the same
+seed gives the same steps with or without it.
+
+``step`` refuses (ConfigError) an action that is not an int or numpy integer in the space: a
+float or a bool is not truncated; ``reset`` refuses option keys outside ``tasks.RESET_OPTIONS``.
 
 ``recovery="nav2"`` (or a ``RecoveryParams``) puts the recovery layer around the agent, as
 ``--recovery`` does for ``d3dwa run`` (docs/design.md#recovery): while it recovers it drives
@@ -61,9 +65,15 @@ from gymnasium import spaces
 
 from d3dwa_bullet.episode import Episode, EpisodeConfig, EpisodeResult
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.learning.render import RenderParams, TopDownCanvas, body_to_world, rollout_path
+from d3dwa_bullet.learning.render import (
+    RenderParams,
+    TopDownCanvas,
+    body_to_world,
+    check_render_mode,
+    rollout_path,
+)
 from d3dwa_bullet.learning.reward import reward
-from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, TaskSampler
+from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, TaskSampler, check_reset_options
 from d3dwa_bullet.params import RecoveryParams, RewardParams, recovery_params
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
 from d3dwa_bullet.planning.planner import PlannerAction
@@ -121,10 +131,7 @@ class D3DWAEnv(gym.Env):
         if recovery is not None:
             params = recovery if isinstance(recovery, RecoveryParams) else recovery_params(recovery)
             episode_config = replace(episode_config, recovery=params)
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ConfigError(
-                f"render_mode {render_mode!r} is not one of {self.metadata['render_modes']}"
-            )
+        check_render_mode(render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
         if episode_config.sim.control_hz != self.metadata["render_fps"]:
             self.metadata = {**self.metadata, "render_fps": episode_config.sim.control_hz}
@@ -192,6 +199,7 @@ class D3DWAEnv(gym.Env):
         self._close_episode()
         t0 = perf()
         options = dict(options or {})
+        check_reset_options(options)
         if "task_weights" in options:
             self.set_task_weights(options.pop("task_weights"))
         self.reset_rng_state = self.np_random.bit_generator.state
@@ -229,11 +237,12 @@ class D3DWAEnv(gym.Env):
         ep = self.episode
         if ep is None or ep.outcome is not None:
             raise RuntimeError("D3DWAEnv.step: call reset() first (the episode is over)")
-        index = int(action)
-        if not self.action_space.contains(index):
+        if isinstance(action, bool) or not self.action_space.contains(action):
             raise ConfigError(
-                f"D3DWAEnv.step: action {action!r} not in Discrete({self.actions.size})"
+                f"D3DWAEnv.step: action {action!r} ({type(action).__name__}) is not an integer "
+                f"in Discrete({self.actions.size}), i.e. 0..{self.actions.size - 1}"
             )
+        index = int(action)
         t0 = perf()
         planner_action = self.actions.decode(index)
         d_goal, d_obs = ep.goal_distance, ep.obstacle_distance

@@ -11,12 +11,15 @@ A ``TopDownCanvas`` is made once per world: it fixes the view (``World.bounds`` 
 margin, at ``RenderParams.pixels_per_metre`` or less so the longer side fits
 ``max_side``) and draws the static layer once; ``frame`` copies that layer and draws the
 moving parts, a fraction of a millisecond per frame. Sizes are multiples of 16 pixels so
-video encoders take them as they are.
+video encoders take them as they are. :func:`has_display` says whether the other render
+mode, the PyBullet GUI, can open a window at all.
 """
 
 from __future__ import annotations
 
 import math
+import os
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -29,6 +32,26 @@ from d3dwa_bullet.params import Footprint
 from d3dwa_bullet.world.model import World, obstacle_outline
 
 RGB = tuple[int, int, int]
+
+
+def has_display() -> bool:
+    """Whether a GUI window can open: on Linux, DISPLAY or WAYLAND_DISPLAY is set."""
+    if not sys.platform.startswith("linux"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def check_render_mode(render_mode: str | None, modes: list[str]) -> None:
+    """ConfigError unless render_mode is None or one of modes, and "human" has a display."""
+    if render_mode is not None and render_mode not in modes:
+        raise ConfigError(f"render_mode {render_mode!r} is not one of {modes}")
+    if render_mode == "human" and not has_display():
+        raise ConfigError(
+            "render_mode='human' opens the PyBullet GUI, but this machine has no display "
+            "(neither DISPLAY nor WAYLAND_DISPLAY is set); use render_mode='rgb_array' "
+            "for frames, or None"
+        )
+
 
 BACKGROUND: RGB = (255, 255, 255)
 GRID: RGB = (232, 232, 232)

@@ -39,6 +39,19 @@ from randomization import episode_noise, load_profile
 TRAIN_WORLDS = world_names("train")
 #: Fresh layouts tried per episode before a generator style is given up (each is a
 #: different layout seed; a style fails a seed only when no passable layout was found).
+RESET_OPTIONS = ("world", "noise", "episode_seed", "task_weights")
+"""The keys the env's ``reset(options=...)`` reads (``learning.env``); any other is refused."""
+
+
+def check_reset_options(options: Mapping[str, Any]) -> None:
+    """ConfigError naming reset option keys outside RESET_OPTIONS, and the known ones."""
+    unknown = sorted(map(str, set(options) - set(RESET_OPTIONS)))
+    if unknown:
+        raise ConfigError(
+            f"D3DWAEnv.reset: unknown option(s) {unknown}; known: {', '.join(RESET_OPTIONS)}"
+        )
+
+
 GENERATOR_RETRIES = 5
 
 

@@ -26,10 +26,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from d3dwa_bullet.errors import UnknownNameError, WorldFormatError
-from d3dwa_bullet.io import read_text
+from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.resources import generators_dir
 from d3dwa_bullet.world.fields import required, vector
 
@@ -239,9 +237,4 @@ def load_generator(style: str | Path) -> GeneratorSpec:
                 "or give a path to a generator YAML"
             )
         path = Path(text)
-    text = read_text(path, WorldFormatError, "generator YAML")
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise WorldFormatError(f"{path}: cannot read generator YAML: {err}") from err
-    return parse_generator(data, str(path))
+    return parse_generator(load_yaml(path, WorldFormatError, "generator YAML"), str(path))

@@ -25,10 +25,10 @@ from typing import Any
 
 import cv2
 import numpy as np
-import yaml
 
 from d3dwa_bullet.errors import WorldFormatError
-from d3dwa_bullet.io import read_text
+from d3dwa_bullet.limits import MAX_MAP_BOXES, MAX_MAP_PIXELS
+from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.world.model import DEFAULT_HEIGHT, Box, World, validate_task
 from d3dwa_bullet.world.sdf import DEFAULT_GOAL, DEFAULT_START
 
@@ -85,6 +85,25 @@ def mask_to_boxes(occupied: np.ndarray) -> list[tuple[int, int, int, int]]:
     return sorted(boxes)
 
 
+def image_size(path: Path) -> tuple[int, int] | None:
+    """(width, height) of a PNG or a PGM/PPM/PBM image from its header, without decoding
+    it; None for another format or a header that cannot be read (left to the decoder)."""
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return None
+    if head.startswith(b"\x89PNG\r\n\x1a\n") and head[12:16] == b"IHDR":
+        return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+    if len(head) > 2 and head[:1] == b"P" and head[1:2] in b"123456":
+        # P<n>, then width and height as decimal text, with '#' comments to end of line
+        text = b"\n".join(line.split(b"#")[0] for line in head[2:].split(b"\n"))
+        fields = text.split()
+        if len(fields) >= 2 and fields[0].isdigit() and fields[1].isdigit():
+            return int(fields[0]), int(fields[1])
+    return None
+
+
 def load_map_world(
     yaml_path: str | Path,
     start: tuple[float, float, float] | None = None,
@@ -98,11 +117,7 @@ def load_map_world(
     """
     yaml_path = Path(yaml_path)
     where = str(yaml_path)
-    text = read_text(yaml_path, WorldFormatError, "map YAML")
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise WorldFormatError(f"{where}: cannot read map YAML: {err}") from err
+    data = load_yaml(yaml_path, WorldFormatError, "map YAML")
     if not isinstance(data, Mapping):
         raise WorldFormatError(f"{where}: top level must be a mapping, got {type(data).__name__}")
     if "image" not in data:
@@ -138,6 +153,10 @@ def load_map_world(
     image_path = Path(str(data["image"]))
     if not image_path.is_absolute():
         image_path = yaml_path.parent / image_path
+    size = image_size(image_path) if image_path.is_file() else None
+    if size is not None:
+        MAX_MAP_PIXELS.check(f"{where}: image {image_path} ({size[0]} x {size[1]} px)",
+                             size[0] * size[1], "pixels", WorldFormatError)  # fmt: skip
     pixels = cv2.imread(str(image_path), cv2.IMREAD_GRAYSCALE) if image_path.is_file() else None
     if pixels is None:
         raise WorldFormatError(
@@ -148,7 +167,9 @@ def load_map_world(
     rows = pixels.shape[0]
     c, s = math.cos(oyaw), math.sin(oyaw)
     obstacles = []
-    for r0, r1, c0, c1 in mask_to_boxes(occupied):
+    boxes = mask_to_boxes(occupied)
+    MAX_MAP_BOXES.check(f"{where}: occupied regions", len(boxes), "boxes", WorldFormatError)
+    for r0, r1, c0, c1 in boxes:
         # map-frame centre: x grows with the column, y grows upwards from the bottom row
         lx = 0.5 * (c0 + c1 + 1) * resolution
         ly = (rows - 0.5 * (r0 + r1 + 1)) * resolution

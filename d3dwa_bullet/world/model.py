@@ -16,6 +16,7 @@ import numpy as np
 
 from d3dwa_bullet.errors import WorldFormatError
 from d3dwa_bullet.geometry import body_outline, circle_polygon, rectangle_corners
+from d3dwa_bullet.limits import MAX_TIME_LIMIT_S
 from d3dwa_bullet.world.fields import vector
 
 DEFAULT_HEIGHT = 0.5
@@ -141,6 +142,10 @@ def validate_task(world: World) -> None:
     if world.time_limit is not None and not world.time_limit > 0:
         raise WorldFormatError(
             f"{world.source}: field 'time_limit' must be > 0, got {world.time_limit!r}"
+        )
+    if world.time_limit is not None:
+        MAX_TIME_LIMIT_S.check(
+            f"{world.source}: field 'time_limit'", world.time_limit, "s", WorldFormatError
         )
     if start_in_collision(world, world.start):
         raise WorldFormatError(

@@ -28,10 +28,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from d3dwa_bullet.errors import WorldFormatError
-from d3dwa_bullet.io import read_text
+from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.world.fields import positive, required, vector
 from d3dwa_bullet.world.model import DEFAULT_HEIGHT, Box, Cylinder, Obstacle, World, validate_task
 
@@ -49,11 +48,7 @@ OBSTACLE_KEYS = {
 
 def read_world_yaml(path: Path) -> Any:
     """The parsed content of a YAML world file, or WorldFormatError if it is not YAML."""
-    text = read_text(path, WorldFormatError, "world file")
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise WorldFormatError(f"{path}: not valid YAML: {err}") from err
+    return load_yaml(path, WorldFormatError, "world file")
 
 
 def world_group(data: Mapping[str, Any], source: str) -> str:

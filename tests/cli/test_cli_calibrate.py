@@ -15,6 +15,7 @@ from d3dwa_bullet.sim.scan import LaserScan
 from randomization.profiles import load_profile
 from transfer.bag_writer import BagRecorder
 from transfer.calibrate_synthetic import SyntheticRun, write_calibration_bag
+from transfer.calibration import HEADER
 from transfer.topics import TopicMap
 
 
@@ -159,8 +160,45 @@ def test_bad_out_or_base(
 
 def test_existing_profile_is_replaced_only_on_success(capsys, bag: Path, tmp_path: Path) -> None:
     out = tmp_path / "p.yaml"
-    out.write_text("old\n")
+    old = f"{HEADER} from 1 bag(s), 9 scans:\nold\n"  # an earlier run's profile
+    out.write_text(old)
     refused(capsys, tmp_path, "calibrate", tmp_path / "nope", "--out", out)
-    assert out.read_text() == "old\n"
+    assert out.read_text() == old
     code, _, _ = run(capsys, "calibrate", bag, "--out", out)
     assert code == 0 and load_profile(out).name == "p"
+
+
+def test_a_file_calibrate_did_not_write_is_not_replaced_without_force(
+    capsys, bag: Path, tmp_path: Path
+) -> None:
+    config = tmp_path / "d3dwa.yaml"
+    config.write_text("method: d3dwa\ntotal_steps: 1000\n")  # the user's training config
+    line = refused(capsys, tmp_path, "calibrate", bag, "--out", config)
+    assert "is not a profile written by `d3dwa calibrate`" in line and "--force" in line
+    assert config.read_text() == "method: d3dwa\ntotal_steps: 1000\n"
+    code, _, _ = run(capsys, "calibrate", bag, "--out", config, "--force")
+    assert code == 0 and load_profile(config).name == "d3dwa"
+    code, _, _ = run(capsys, "calibrate", bag, "--out", config)  # its own profile: replaced
+    assert code == 0
+
+
+def test_a_special_file_as_out_is_refused_even_with_force(capsys, bag: Path, tmp_path: Path):
+    link = tmp_path / "null.yaml"
+    link.symlink_to("/dev/null")
+    line = refused(capsys, tmp_path, "calibrate", bag, "--out", link, "--force")
+    assert "is not a regular file" in line
+    assert link.is_symlink()
+
+
+def test_a_bag_name_cannot_inject_yaml_into_the_profile(capsys, tmp_path: Path) -> None:
+    evil = tmp_path / "bag\nparams: {}\nname: pwned\n#.bag"  # a ROS 1 bag file
+    write_calibration_bag(evil, run=SyntheticRun(drive_s=4.0))
+    out = tmp_path / "p.yaml"
+    code, _, _ = run(capsys, "calibrate", evil, "--out", out)
+    assert code == 0
+    text = out.read_text()
+    assert "name: pwned" not in text.splitlines()
+    assert [ln for ln in text.splitlines() if ln.startswith("#   ")] == [
+        f"#   {tmp_path}/bag\\nparams: {{}}\\nname: pwned\\n#.bag"
+    ]
+    assert load_profile(out).name == "p"

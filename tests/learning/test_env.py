@@ -190,3 +190,33 @@ def test_reset_and_close_close_the_simulator(open_world: World) -> None:
     last = env.episode
     env.close()
     assert last.sim.client is None and env.episode is None
+
+
+@pytest.mark.parametrize(
+    "action",
+    [2.5, 3.0, np.float32(3), np.float64(2.5), True, np.bool_(True), "a", None, [3], 100, -1],
+)
+def test_step_refuses_anything_but_an_integer_in_the_space(open_world: World, action) -> None:
+    env = D3DWAEnv(worlds=(open_world,))
+    env.reset(seed=0)
+    with pytest.raises(ConfigError, match=r"D3DWAEnv\.step: action .* is not an integer in"):
+        env.step(action)
+    for ok in (PROGRESS, np.int64(PROGRESS), np.array(PROGRESS)):  # a vector env's action
+        env.step(ok)
+    env.close()
+
+
+def test_reset_refuses_unknown_options_naming_the_known_ones(open_world: World) -> None:
+    env = D3DWAEnv(worlds=(open_world,))
+    with pytest.raises(ConfigError, match=r"unknown option\(s\) \['bogus'\]; known: world, noise"):
+        env.reset(seed=0, options={"bogus": 1, "noise": "none"})
+    env.reset(seed=0, options={"noise": "none", "episode_seed": 3})
+    env.close()
+
+
+def test_human_render_mode_without_a_display_is_refused(open_world: World, monkeypatch) -> None:
+    monkeypatch.setattr("sys.platform", "linux")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(ConfigError, match="render_mode='human' .* no display .* DISPLAY"):
+        D3DWAEnv(worlds=(open_world,), render_mode="human")

@@ -140,6 +140,7 @@ def gui_modes(monkeypatch):
         return connect(pybullet.DIRECT)
 
     monkeypatch.setattr(pybullet, "connect", fake_connect)
+    monkeypatch.setenv("DISPLAY", ":0")  # so render_mode="human" is accepted (D3DWAEnv checks)
     return modes
 
 

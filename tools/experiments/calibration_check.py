@@ -33,6 +33,8 @@ import numpy as np
 import yaml
 
 from d3dwa_bullet.cli.app import main as d3dwa
+from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.loading import load_yaml, parse_json
 from randomization.profiles import load_profile
 from transfer.compare import READING_CLASSES
 
@@ -78,7 +80,7 @@ def _distance(a: list[dict[str, Any]], b: list[dict[str, Any]], key: str) -> flo
 def check(
     out: Path, world: str, method: str, base: str, time_limit: float, seeds: tuple[int, int]
 ) -> dict[str, Any]:
-    data = yaml.safe_load(Path(load_profile(base).source).read_text())
+    data = load_yaml(load_profile(base).source, ResultsError, "profile YAML")
     data["name"] = "source_robot"
     data["description"] = "the source robot of tools.experiments.calibration_check"
     data["params"]["lidar"] = SOURCE_LIDAR
@@ -96,14 +98,18 @@ def check(
         "--overwrite",
     )
     calibrated = out / "calibrated.yaml"
-    summary = json.loads(
-        _run("calibrate", out / "source", "--out", calibrated, "--base", base, "--json")
+    summary = parse_json(
+        _run("calibrate", out / "source", "--out", calibrated, "--base", base, "--json"),
+        ResultsError,
+        "d3dwa calibrate --json",
     )
     figures: dict[str, Any] = {}
     for name, profile in (("calibrated", calibrated), ("base", base)):
         bag = out / f"sim_{name}"
         _run(*record, "--noise", profile, "--seed", seeds[1], "--out", bag, "--overwrite")
-        result = json.loads(_run("compare-scans", out / "source", bag, "--json"))
+        result = parse_json(
+            _run("compare-scans", out / "source", bag, "--json"), ResultsError, "compare-scans"
+        )
         figures.setdefault("source", _figures(result["a"]))
         figures[name] = _figures(result["b"])
     keys = ("valid", *READING_CLASSES, "noise_mm")

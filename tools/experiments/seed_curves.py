@@ -12,15 +12,16 @@ these curves say how training went, not how a method does on the reported worlds
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.io import atomic_savefig
 from d3dwa_bullet.learning.training.logs import read_metrics
+from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.methods import LABELS
 from d3dwa_bullet.seed_dirs import seed_dirs
 
@@ -33,7 +34,7 @@ def seed_curves(run: Path) -> dict[int, tuple[np.ndarray, np.ndarray, int | None
         if not rows:
             continue
         summary = path / "summary.json"
-        best = json.loads(summary.read_text()).get("best_eval") if summary.is_file() else None
+        best = load_json(summary, ResultsError).get("best_eval") if summary.is_file() else None
         steps = np.array([r["step"] for r in rows])
         values = np.array([r["value"] for r in rows])
         curves[k] = (steps, values, (best or {}).get("step"))
@@ -51,8 +52,8 @@ def figure(runs: Sequence[Path], out: Path) -> Path:
     axes = [axes] if len(runs) == 1 else list(axes)
     for ax, run in zip(axes, runs, strict=True):
         curves = seed_curves(run)
-        method = json.loads(next(iter(seed_dirs(run).values())).joinpath("config.json")
-                            .read_text())["method"] if curves else run.name  # fmt: skip
+        method = load_json(next(iter(seed_dirs(run).values())) / "config.json",
+                           ResultsError)["method"] if curves else run.name  # fmt: skip
         for k, (steps, values, kept) in curves.items():
             ax.plot(steps / 1000, values, lw=0.8, alpha=0.6, label=f"seed {k}")
             if kept is not None and kept in steps:

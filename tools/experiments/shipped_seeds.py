@@ -17,6 +17,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.methods import LEARNED
 from d3dwa_bullet.resources import policies_dir
 from d3dwa_bullet.seed_dirs import seed_dirs
@@ -31,7 +33,7 @@ def seed_records(folder: Path) -> list[dict[str, Any]]:
             continue
         rows = []
         for k, path in seeds.items():
-            summary = json.loads((path / "summary.json").read_text())
+            summary = load_json(path / "summary.json", ResultsError)
             best = summary.get("best_eval") or {}
             rows.append({
                 "seed": k, "env_steps": summary["env_steps"], "kept_step": best.get("step"),

@@ -49,6 +49,7 @@ from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
+from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
 from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
 
@@ -213,10 +214,7 @@ def read_meta(directory: str | os.PathLike[str]) -> dict[str, Any]:
     path = Path(directory) / META_FILE
     if not path.is_file():
         raise CheckpointError(f"{path}: missing (not a checkpoint directory?)")
-    try:
-        meta = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise CheckpointError(f"{path}: unreadable or not valid JSON ({err})") from err
+    meta = load_json(path, CheckpointError, "checkpoint meta.json")
     if not isinstance(meta, dict):
         raise CheckpointError(f"{path}: expected a JSON object, got {type(meta).__name__}")
     version = meta.get("format_version")

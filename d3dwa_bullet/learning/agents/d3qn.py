@@ -35,6 +35,7 @@ from torch import nn
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.learning.agents.network import DuelingQNetwork
 from d3dwa_bullet.learning.agents.replay import ReplayBuffer, Transition
+from d3dwa_bullet.limits import MAX_REPLAY_CAPACITY
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ActionSet
 from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
 
@@ -84,6 +85,11 @@ class D3QNConfig:
                 "buffer_size",
                 self.buffer_size >= self.batch_size,
                 f">= batch_size ({self.batch_size})",
+            ),
+            (
+                "buffer_size",
+                self.buffer_size <= MAX_REPLAY_CAPACITY.value,
+                f"<= {MAX_REPLAY_CAPACITY.value} ({MAX_REPLAY_CAPACITY.why})",
             ),
             ("learning_starts", self.learning_starts >= 0, ">= 0"),
             ("train_freq", self.train_freq >= 1, ">= 1"),

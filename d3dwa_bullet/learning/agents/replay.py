@@ -6,6 +6,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from d3dwa_bullet import limits
 from d3dwa_bullet.errors import ConfigError
 
 
@@ -36,6 +37,26 @@ class ReplayBatch(NamedTuple):
     terminated: np.ndarray
 
 
+def replay_bytes(capacity: int, obs_dim: int) -> int:
+    """Bytes a ReplayBuffer of ``capacity`` transitions allocates: obs and next_obs
+    float32, action int64, reward and terminated float32."""
+    return int(capacity) * (2 * 4 * int(obs_dim) + 8 + 4 + 4)
+
+
+def check_replay_memory(capacity: int, obs_dim: int, option: str = "buffer_size") -> None:
+    """ConfigError naming ``option`` when ``capacity`` is over ``MAX_REPLAY_CAPACITY`` or
+    the buffer would take more than ``REPLAY_MEMORY_FRACTION`` of the memory available now
+    (:mod:`d3dwa_bullet.limits`)."""
+    limits.MAX_REPLAY_CAPACITY.check(option, capacity, "transitions")
+    need, available = replay_bytes(capacity, obs_dim), limits.available_memory()
+    if need > limits.REPLAY_MEMORY_FRACTION * available:
+        raise ConfigError(
+            f"{option}: {capacity} transitions need {need / 2**30:.2f} GiB, over "
+            f"{limits.REPLAY_MEMORY_FRACTION:.0%} of the {available / 2**30:.2f} GiB of memory "
+            "available (the replay buffer is allocated whole; a smaller one, or more memory)"
+        )
+
+
 class ReplayBuffer:
     """A ring buffer of ``capacity`` transitions, sampled uniformly with replacement."""
 
@@ -44,6 +65,7 @@ class ReplayBuffer:
             raise ConfigError(
                 f"ReplayBuffer: capacity and obs_dim must be >= 1, got {capacity}, {obs_dim}"
             )
+        check_replay_memory(capacity, obs_dim)
         self.capacity = int(capacity)
         self.obs_dim = int(obs_dim)
         self._rng = np.random.default_rng(seed)

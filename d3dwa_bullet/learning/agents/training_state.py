@@ -36,6 +36,7 @@ from d3dwa_bullet.learning.agents.checkpoint import (
     torch_load_failure,
 )
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
+from d3dwa_bullet.loading import load_json
 
 
 def _rng_state(rng: np.random.Generator) -> dict[str, Any]:
@@ -110,10 +111,9 @@ def restore_training_state(directory: str | os.PathLike[str], agent: Agent) -> d
     """
     root = Path(directory)
     path = checked_file(root, TRAINING_STATE_FILE)
-    try:
-        state = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise CheckpointError(f"{path}: unreadable or not valid JSON ({err})") from err
+    state = load_json(path, CheckpointError, "training state")
+    if not isinstance(state, dict):
+        raise CheckpointError(f"{path}: expected a JSON object, got {type(state).__name__}")
     if state.get("format_version") != FORMAT_VERSION or state.get("agent") != agent.method_family:
         raise CheckpointError(
             f"{path}: training state of agent {state.get('agent')!r} (format "

@@ -14,6 +14,7 @@ replay that rebuilds it), ``greedy_eval`` (periodic greedy evaluation), ``checkp
 from d3dwa_bullet.learning.training.checkpoints import export_policy
 from d3dwa_bullet.learning.training.config import (
     TrainConfig,
+    check_run_limits,
     load_train_config,
     make_agent,
     make_env,
@@ -30,6 +31,7 @@ __all__ = [
     "MetricsLog",
     "TrainConfig",
     "Trainer",
+    "check_run_limits",
     "export_policy",
     "learning_curve",
     "load_train_config",

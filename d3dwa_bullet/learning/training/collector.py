@@ -28,7 +28,7 @@ from gymnasium.vector import AsyncVectorEnv, AutoresetMode, SyncVectorEnv, Vecto
 
 from d3dwa_bullet.errors import TrainingError
 from d3dwa_bullet.learning.env import D3DWAEnv
-from d3dwa_bullet.learning.training.config import TrainConfig, make_env
+from d3dwa_bullet.learning.training.config import TrainConfig, check_run_limits, make_env
 
 WORKER_TIMEOUT_S = 300.0
 """A worker silent this long (one lock-step is milliseconds) is taken as hung."""
@@ -69,6 +69,7 @@ class Collector:
     """The training envs of a run, stepped together (module docstring)."""
 
     def __init__(self, config: TrainConfig, where: str = "") -> None:
+        check_run_limits(config)  # before a process starts or a buffer is allocated
         self.n = int(config.n_envs)
         self.where = where
         self._broken = False

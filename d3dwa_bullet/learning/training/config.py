@@ -15,18 +15,22 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
+from d3dwa_bullet.learning.agents.replay import check_replay_memory
 from d3dwa_bullet.learning.env import D3DWAEnv
 from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, resolve_world
+from d3dwa_bullet.limits import check_processes, check_weights
+from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.methods import LEARNED
 from d3dwa_bullet.planning.actions import ActionSet
+from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
 from d3dwa_bullet.world.registry import world_names
 
+OBS_DIM = len(OBSERVATION_LAYOUT)
+"""Observation size of every learned method (the replay buffer's row width)."""
 #: Reward scale by agent family: the D3QN uses the baseline magnitudes / 100 (paper).
 DEFAULT_REWARD_SCALE = {"d3qn": 0.01, "dqdwa": 1.0}
 CURRICULA = ("uniform", "adaptive")
@@ -177,6 +181,8 @@ class TrainConfig:
                 f"TrainConfig.noise_probs: {len(self.noise_probs)} weights for "
                 f"{len(self.noise)} noise profiles {list(self.noise)}"
             )
+        if self.noise_probs:
+            check_weights("TrainConfig.noise_probs", self.noise_probs)
         if self.keep == "best" and self.eval_every == 0:
             raise ConfigError("TrainConfig.keep = 'best' needs eval_every > 0")
         for w in self.worlds:
@@ -256,10 +262,7 @@ def check_scalar_types(cls: type, data: Mapping[str, Any], source: str, prefix: 
 def load_train_config(path: str | os.PathLike[str], **overrides: Any) -> TrainConfig:
     """A TrainConfig from a YAML (or JSON) file, with keyword overrides (None = keep)."""
     p = Path(path)
-    try:
-        data = yaml.safe_load(p.read_text())
-    except (OSError, yaml.YAMLError) as err:
-        raise ConfigError(f"{p}: cannot read the training config: {err}") from err
+    data = load_yaml(p, ConfigError, "training config")
     if data is not None and not isinstance(data, Mapping):
         raise ConfigError(
             f"{p}: expected a mapping of TrainConfig fields (method: ..., total_steps: ...), "
@@ -274,6 +277,16 @@ def load_train_config(path: str | os.PathLike[str], **overrides: Any) -> TrainCo
                 )
             data[key] = value
     return TrainConfig.from_dict(data, str(p))
+
+
+def check_run_limits(config: TrainConfig) -> None:
+    """ConfigError when this machine cannot run ``config``: more worker processes
+    (``n_envs``) than :func:`d3dwa_bullet.limits.max_processes`, or a replay buffer over
+    the memory bound. Checked when a run starts, before any process or buffer exists, not
+    when a config loads (a config.json written on a larger machine stays readable)."""
+    check_processes("n_envs", config.n_envs)
+    if isinstance(config.agent, D3QNConfig):
+        check_replay_memory(config.agent.buffer_size, OBS_DIM, "agent.buffer_size")
 
 
 def check_selection_rule(config: TrainConfig) -> None:

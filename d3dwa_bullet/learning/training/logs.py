@@ -32,6 +32,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from d3dwa_bullet.errors import TrainingError
 from d3dwa_bullet.io import atomic_savefig
 from d3dwa_bullet.learning.training.run_dir import (
     EPISODES_FILE,
@@ -39,6 +40,7 @@ from d3dwa_bullet.learning.training.run_dir import (
     METRICS_FILE,
     TENSORBOARD_DIR,
 )
+from d3dwa_bullet.loading import load_json_lines, parse_json
 
 try:
     from torch.utils.tensorboard import SummaryWriter
@@ -141,8 +143,8 @@ def _step_after_last_record(path: Path) -> int | None:
             tail = fh.read(block) + tail
     lines = [line for line in tail.splitlines() if line.strip()]
     try:
-        return int(json.loads(lines[-1])["step"]) + 1 if lines else None
-    except (ValueError, KeyError, TypeError):  # not a record: purge nothing
+        return int(parse_json(lines[-1], TrainingError, str(path))["step"]) + 1 if lines else None
+    except (TrainingError, ValueError, KeyError, TypeError):  # not a record: purge nothing
         return None
 
 
@@ -181,7 +183,7 @@ def read_metrics(out: str | os.PathLike[str], tag: str | None = None) -> list[di
     path = Path(out) / METRICS_FILE
     if not path.exists():
         return []
-    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    rows = load_json_lines(path, TrainingError, "metrics log")
     return [r for r in rows if tag is None or r["tag"] == tag]
 
 

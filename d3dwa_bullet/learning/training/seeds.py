@@ -15,19 +15,19 @@ that seed's failure; the other seeds are kept.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from d3dwa_bullet.errors import ConfigError, D3DWAError
+from d3dwa_bullet.errors import ConfigError, D3DWAError, TrainingError
 from d3dwa_bullet.evaluation.backends import check_address, ray_session
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.learning.training.checkpoints import export_policy
 from d3dwa_bullet.learning.training.config import TrainConfig, check_selection_rule
 from d3dwa_bullet.learning.training.run_dir import SUMMARY_FILE
 from d3dwa_bullet.learning.training.trainer import train
+from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.seed_dirs import seed_dir
 
 
@@ -48,7 +48,7 @@ def _complete(out: Path, total_steps: int) -> bool:
     path = out / SUMMARY_FILE
     if not path.is_file():
         return False
-    summary = json.loads(path.read_text())
+    summary = load_json(path, TrainingError, "run summary")
     return summary.get("status") == "done" and int(summary.get("env_steps", -1)) >= total_steps
 
 

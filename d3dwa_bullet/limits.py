@@ -1,0 +1,151 @@
+"""Every bound on what a user can type or hand us, with the reason for it, in one place.
+
+A value over its limit is refused before anything is allocated, expanded or started, with
+one line that names the option (or file field), the limit and why::
+
+    --seeds: 100000000000 seeds is over the limit of 10000 (one episode per seed ...)
+
+The limits are far above anything the paper's protocol or a real robot needs; they exist so
+that a typo (``--seeds 0-99999999999``, ``--time-limit 1e12``) or a hostile file ends in a
+clear error instead of hours of work, a MemoryError or a machine that swaps. Raise one here,
+with its reason, if a real use needs more.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+from d3dwa_bullet.errors import ConfigError, D3DWAError
+
+
+@dataclass(frozen=True)
+class Limit:
+    """An upper bound (inclusive) and the one-clause reason the message gives for it."""
+
+    value: float
+    why: str
+
+    def check(
+        self, option: str, value: float, unit: str = "", error: type[D3DWAError] = ConfigError
+    ) -> None:
+        """``error`` naming option, value, limit and reason unless ``value <= self.value``
+        (a NaN is over every limit)."""
+        if not value <= self.value:
+            shown = f"{value:g}" if isinstance(value, float) else str(value)
+            limit = f"{self.value:g}" if isinstance(self.value, float) else str(self.value)
+            sep = " " if unit else ""
+            raise error(
+                f"{option}: {shown}{sep}{unit} is over the limit of {limit}{sep}{unit} ({self.why})"
+            )
+
+
+MAX_DOCUMENT_BYTES = Limit(4 * 2**20, "a YAML or JSON file of this project is a few kB")
+"""Size of one YAML or JSON document read whole (a world, profile, training config,
+map_server YAML, meta.json, summary.json, config.json, training_state.json). The largest the
+project writes is a few kB; 16 MiB leaves room for generated worlds with thousands of
+obstacles and refuses a huge or endless file before a byte of it is read."""
+
+MAX_TEXT_BYTES = Limit(1 * 2**30, "text files are read whole into memory")
+"""Size of any other text file read whole (results.csv, metrics.jsonl): a sweep of a million
+episodes writes a few hundred MB; 1 GiB is past any run this project makes."""
+
+MAX_NESTING_DEPTH = Limit(32, "no file of this project nests deeper than 4 levels")
+"""Nesting of mappings and lists in a YAML or JSON document. The deepest file the project
+reads (a training config's ``agent:`` block, a world's obstacle list) nests 4 levels; a
+document nested thousands of levels deep would otherwise end in a RecursionError."""
+
+MAX_ALIAS_NODES = Limit(10_000, "each YAML alias repeats its anchor's whole node")
+"""Nodes that YAML aliases (``*name``) may add to a document, each alias counted as the full
+size of the node it repeats. ``yaml.safe_dump`` writes an alias for a list used twice, so a
+few are ordinary; nine lines of nested aliases (the "billion laughs") would add 9^9.
+"""
+
+MAX_SEEDS = Limit(10_000, "one episode or training run per seed")
+"""Seeds in one ``--seeds`` / ``--policy-seeds`` list or count (``0-4``, ``0,3,7``, or
+``eval --seeds N``). Checked before a range is expanded, so ``0-99999999999`` never builds a
+list. The paper's tables use 5 training seeds and tens of evaluation seeds."""
+
+MAX_SEED_VALUE = Limit(2**32 - 1, "numpy and PyBullet seeds are 32-bit")
+"""Largest seed value a seed list or range may name."""
+
+MAX_LAYOUTS = Limit(1_000, "each layout is a fresh world built per episode")
+"""``sweep --layouts``: generated layouts per style (the protocol uses 10)."""
+
+MAX_LEVELS = Limit(100, "each level multiplies the sweep's episodes")
+"""``sweep --levels``: non-zero noise levels per axis (the protocol uses 4)."""
+
+MAX_EPISODES = Limit(1_000_000, "about a CPU-year of episodes")
+"""Episodes of one ``eval`` or ``sweep`` (worlds x methods x training seeds x conditions x
+seeds), counted before the job list is built."""
+
+MAX_PROCESSES_PER_CORE = 4
+"""Worker processes (``--workers``, ``--n-envs`` / ``n_envs``) per core of this machine:
+each is a simulator in its own process; past a few per core they only add memory and
+context switches."""
+
+MAX_TIME_LIMIT_S = Limit(3600.0, "an episode is a minute of simulated time; an hour is ample")
+"""Episode time limit, seconds of simulated time (``--time-limit`` and a world's
+``time_limit``); the paper's episodes last 60 s."""
+
+MAX_MAP_PIXELS = Limit(50_000_000, "a map_server image is decoded whole into memory")
+"""Pixels of a map_server image, read from its PNG/PGM header before it is decoded: 50
+megapixels is a 7 km square at 1 m/px, or a 350 m square at the usual 5 cm/px. Other
+image formats are left to OpenCV's own bound (2^30 pixels)."""
+
+MAX_MAP_BOXES = Limit(200_000, "each box is a PyBullet body")
+"""Boxes a map_server image may become after merging runs of occupied pixels."""
+
+MAX_REPLAY_CAPACITY = Limit(50_000_000, "the replay buffer is allocated whole")
+"""Replay capacity in transitions (``agent.buffer_size``); the paper's agent keeps 100k."""
+
+REPLAY_MEMORY_FRACTION = 0.5
+"""A replay buffer may take at most this fraction of the memory available when it is
+allocated (or when the training config is read), so training never pushes the machine into
+swap."""
+
+
+def max_processes() -> int:
+    """Most worker processes a command may start on this machine."""
+    return MAX_PROCESSES_PER_CORE * (os.cpu_count() or 1)
+
+
+def check_processes(option: str, count: int) -> None:
+    """ConfigError unless ``count`` worker processes fit :func:`max_processes`."""
+    Limit(max_processes(), f"{MAX_PROCESSES_PER_CORE} per core of this machine").check(
+        option, count, "processes"
+    )
+
+
+def available_memory() -> int:
+    """Bytes of memory available to a new allocation (``MemAvailable`` on Linux; free
+    physical pages elsewhere; a very large number when neither can be read)."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, OSError, ValueError):
+        return 2**62
+
+
+def check_weights(
+    option: str, weights: list[float] | tuple[float, ...], error: type[D3DWAError] = ConfigError
+) -> None:
+    """``error`` unless every weight is a finite number >= 0 and their sum is finite and
+    > 0 (``[1e308, 1e308]`` overflows to inf: probabilities would come out NaN)."""
+    if not all(
+        isinstance(w, int | float) and not isinstance(w, bool) and math.isfinite(w) and w >= 0
+        for w in weights
+    ):
+        raise error(f"{option}: weights must be finite numbers >= 0, got {list(weights)}")
+    total = sum(float(w) for w in weights)  # not fsum: it raises on overflow
+    if not (math.isfinite(total) and total > 0):
+        raise error(
+            f"{option}: weights must have a finite sum > 0, got {list(weights)} (sum {total:g})"
+        )

@@ -1,0 +1,161 @@
+"""The one place YAML and JSON are parsed: bounded in size, depth and expansion.
+
+Every YAML or JSON file the project reads (worlds, generator styles, map_server YAML, noise
+profiles, training configs, checkpoint ``meta.json`` / ``config.json`` /
+``training_state.json``, run summaries, results ``meta.json``, ``metrics.jsonl``) goes
+through :func:`load_yaml`, :func:`load_json` or :func:`load_json_lines`; text the program
+holds already goes through :func:`parse_yaml` / :func:`parse_json`. The caller's schema
+checks come after. What is refused, each with the caller's error class and one line that
+names the file:
+
+- a file that is not a regular file (``/dev/zero``, a FIFO) or is over its size limit
+  (:data:`~d3dwa_bullet.limits.MAX_DOCUMENT_BYTES`), before it is read
+  (:func:`d3dwa_bullet.io.read_text`);
+- mappings and lists nested deeper than :data:`~d3dwa_bullet.limits.MAX_NESTING_DEPTH`;
+- YAML aliases (``*name``) that add more than
+  :data:`~d3dwa_bullet.limits.MAX_ALIAS_NODES` nodes: an alias repeats its anchor's node,
+  so nine lines of aliases make a billion items (the "billion laughs"). The few aliases
+  ``yaml.safe_dump`` writes for a list used twice load as before;
+- YAML tags beyond the safe ones (``!!python/object`` ...), as ``yaml.safe_load`` does.
+
+``tests/test_loading.py`` fails if any other module calls ``yaml.safe_load``,
+``yaml.load``, ``json.loads`` or ``json.load``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any
+
+import yaml
+
+from d3dwa_bullet.errors import D3DWAError
+from d3dwa_bullet.io import read_text
+from d3dwa_bullet.limits import (
+    MAX_ALIAS_NODES,
+    MAX_DOCUMENT_BYTES,
+    MAX_NESTING_DEPTH,
+    MAX_TEXT_BYTES,
+)
+
+
+class _Refused(yaml.YAMLError):
+    """A YAML document this project does not accept (an alias, too deep)."""
+
+
+class _BoundedLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that refuses aliases adding too many nodes and nesting deeper
+    than the limit while it composes the document, before anything is built."""
+
+    def __init__(self, stream: str) -> None:
+        super().__init__(stream)
+        self._depth = 0
+        self._alias_nodes = 0
+        self._sizes: dict[int, int] = {}  # id(node) -> nodes in it, aliases expanded
+
+    def _size(self, node: yaml.Node) -> int:
+        key = id(node)
+        if key not in self._sizes:  # memoised: a shared node is measured once
+            if isinstance(node, yaml.MappingNode):
+                children = [n for pair in node.value for n in pair]
+            else:
+                children = node.value if isinstance(node, yaml.SequenceNode) else []
+            self._sizes[key] = 1 + sum(self._size(child) for child in children)
+        return self._sizes[key]
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        if self.check_event(yaml.AliasEvent):
+            event = self.peek_event()
+            node = super().compose_node(parent, index)
+            self._alias_nodes += self._size(node)
+            if self._alias_nodes > MAX_ALIAS_NODES.value:
+                raise _Refused(
+                    f"line {event.start_mark.line + 1}: alias *{event.anchor} brings the nodes "
+                    f"that aliases repeat past {MAX_ALIAS_NODES.value} ({MAX_ALIAS_NODES.why}; "
+                    "a few lines of aliases can expand to billions of items)"
+                )
+            return node
+        nested = self.check_event(yaml.SequenceStartEvent, yaml.MappingStartEvent)
+        self._depth += nested
+        try:
+            if self._depth > MAX_NESTING_DEPTH.value:
+                raise _Refused(
+                    f"line {self.peek_event().start_mark.line + 1}: nested more than "
+                    f"{MAX_NESTING_DEPTH.value} levels deep ({MAX_NESTING_DEPTH.why})"
+                )
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= nested
+
+
+def parse_yaml(text: str, error: type[D3DWAError], source: str) -> Any:
+    """The content of one YAML document (None when empty); ``error`` naming ``source``."""
+    loader = _BoundedLoader(text)
+    try:
+        return loader.get_single_data()
+    except yaml.YAMLError as err:
+        raise error(f"{source}: not valid YAML: {err}") from err
+    except RecursionError as err:  # a deep nest the depth check did not reach (a scalar)
+        raise error(f"{source}: not valid YAML: nested too deeply") from err
+    finally:
+        loader.dispose()
+
+
+def load_yaml(
+    path: str | os.PathLike[str], error: type[D3DWAError], what: str = "YAML file"
+) -> Any:
+    """The content of a YAML file (None when empty); ``error`` naming the file for a file
+    that cannot be read, is too large, is not YAML, or nests or aliases beyond the limits."""
+    return parse_yaml(read_text(path, error, what, MAX_DOCUMENT_BYTES), error, str(path))
+
+
+def _check_depth(value: Any, error: type[D3DWAError], source: str) -> Any:
+    stack = [(value, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, dict | list):
+            if depth > MAX_NESTING_DEPTH.value:
+                raise error(
+                    f"{source}: nested more than {MAX_NESTING_DEPTH.value} levels deep "
+                    f"({MAX_NESTING_DEPTH.why})"
+                )
+            children = item.values() if isinstance(item, dict) else item
+            stack.extend((child, depth + 1) for child in children)
+    return value
+
+
+def parse_json(text: str | bytes, error: type[D3DWAError], source: str) -> Any:
+    """The content of one JSON document; ``error`` naming ``source`` when it is not JSON
+    or nests deeper than the limit."""
+    try:
+        value = json.loads(text)
+    except RecursionError as err:
+        raise error(
+            f"{source}: nested more than {MAX_NESTING_DEPTH.value} levels deep "
+            f"({MAX_NESTING_DEPTH.why})"
+        ) from err
+    except ValueError as err:  # JSONDecodeError, an integer of too many digits
+        raise error(f"{source}: not valid JSON ({err})") from err
+    return _check_depth(value, error, source)
+
+
+def load_json(
+    path: str | os.PathLike[str], error: type[D3DWAError], what: str = "JSON file"
+) -> Any:
+    """The content of a JSON file; ``error`` naming the file for a file that cannot be
+    read, is too large, is not JSON or nests beyond the limit."""
+    return parse_json(read_text(path, error, what, MAX_DOCUMENT_BYTES), error, str(path))
+
+
+def load_json_lines(
+    path: str | os.PathLike[str], error: type[D3DWAError], what: str = "JSON-lines file"
+) -> list[Any]:
+    """One value per non-blank line of a JSON-lines log (``metrics.jsonl``); a log may be
+    larger than a document (:data:`~d3dwa_bullet.limits.MAX_TEXT_BYTES`)."""
+    text = read_text(path, error, what, MAX_TEXT_BYTES)
+    return [
+        parse_json(line, error, f"{path}, line {n}")
+        for n, line in enumerate(text.splitlines(), 1)
+        if line.strip()
+    ]

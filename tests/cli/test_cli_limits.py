@@ -1,0 +1,138 @@
+"""Inputs too big, too deep, too many or hostile (issue 24): one ``d3dwa: error:`` line naming
+the option or file, exit status 2, before any episode, process or large allocation."""
+
+from __future__ import annotations
+
+import re
+import struct
+import time
+import zlib
+from pathlib import Path
+
+import pytest
+import yaml
+
+from d3dwa_bullet.cli.app import main
+from d3dwa_bullet.limits import MAX_TIME_LIMIT_S, max_processes
+from tests.conftest import ONE_SECOND_WORLD
+from tests.test_loading import alias_bomb
+
+
+def refused(capsys: pytest.CaptureFixture, *argv: object) -> str:
+    """Run argv, expect exit 2 and exactly one ``d3dwa: error:`` line; return that line."""
+    code = main([str(a) for a in argv])
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and lines[0].startswith("d3dwa: error: "), (code, err)
+    return lines[0]
+
+
+def png_header(width: int, height: int) -> bytes:
+    """The signature and IHDR chunk of a grey PNG of that size (no pixel data)."""
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    chunk = b"IHDR" + ihdr
+    return (
+        b"\x89PNG\r\n\x1a\n" + struct.pack(">I", 13) + chunk + struct.pack(">I", zlib.crc32(chunk))
+    )
+
+
+def test_an_alias_bomb_profile_is_one_line_and_fast(tmp_path, capsys):
+    bomb = tmp_path / "bomb.yaml"
+    bomb.write_text(alias_bomb())
+    start = time.perf_counter()
+    line = refused(capsys, "run", "--world", "TS1", "--method", "dwa1", "--noise", bomb)
+    assert time.perf_counter() - start < 2.0
+    assert f"{bomb}: not valid YAML: line " in line and "brings the nodes that aliases" in line
+
+
+@pytest.mark.parametrize(
+    "argv, expected",
+    [
+        (["eval", "--seeds", "99999999999", "--methods", "dwa1"],
+         "--seeds: 99999999999 seeds is over the limit of 10000"),
+        (["eval", "--seeds", "10000", "--methods", "dwa1,dwa2,dwa3,dqdwa,d3dwa,d3dwa-dr"],
+         r"eval: \d+ episodes is over the limit of 1000000"),  # 8 worlds x 18 runs x 10000
+        (["eval", "--policy-seeds", "0-99999999999", "--methods", "d3dwa"],
+         "--policy-seeds: 100000000000 seeds is over the limit of 10000"),
+        (["eval", "--workers", "100000", "--methods", "dwa1"],
+         "--workers: 100000 processes is over the limit"),
+        (["sweep", "--layouts", "1000000", "--methods", "dwa1"],
+         "--layouts: 1000000 layouts is over the limit of 1000"),
+        (["sweep", "--levels", "1000000", "--methods", "dwa1"],
+         "--levels: 1000000 levels is over the limit of 100"),
+        (["sweep", "--seeds", "10000", "--layouts", "1000", "--methods", "dwa1"],
+         "sweep: .* episodes is over the limit of 1000000"),
+    ],
+)  # fmt: skip
+def test_counts_over_their_limit_are_refused_before_any_work(
+    tmp_path, capsys, monkeypatch, argv, expected
+):
+    def no_episodes(*args, **kwargs):
+        raise AssertionError("episodes started: the limit was not checked")
+
+    monkeypatch.setattr("d3dwa_bullet.evaluation.jobs.evaluate", no_episodes)
+    monkeypatch.setattr("d3dwa_bullet.evaluation.sweep.run_sweep", no_episodes)
+    out = tmp_path / "out"
+    line = refused(capsys, *argv, "--out", out)
+    assert re.search(expected, line), line
+    assert not out.exists()  # refused before the results directory was made
+
+
+def test_a_time_limit_past_an_hour_is_refused(capsys, tmp_path):
+    line = refused(capsys, "run", "--world", "TS1", "--method", "dwa1", "--time-limit", "1e12")
+    assert "--time-limit: 1e+12 s is over the limit of 3600 s" in line
+    world = tmp_path / "long.yaml"
+    world.write_text(yaml.safe_dump({**ONE_SECOND_WORLD, "time_limit": MAX_TIME_LIMIT_S.value * 2}))
+    line = refused(capsys, "run", "--world", world, "--method", "dwa1")
+    assert f"{world}: field 'time_limit': 7200 s is over the limit of 3600 s" in line
+
+
+def test_n_envs_past_the_processes_of_this_machine_is_refused(tmp_path, capsys):
+    line = refused(capsys, "train", "--method", "d3dwa", "--n-envs", max_processes() + 1,
+                   "--out", tmp_path / "run")  # fmt: skip
+    assert f"--n-envs: {max_processes() + 1} processes is over the limit" in line
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize(
+    "config, expected",
+    [
+        ({"method": "dqdwa", "n_envs": 10**6}, "n_envs: 1000000 processes is over the limit"),
+        ({"method": "dqdwa", "noise": ["none", "paper"], "noise_probs": [1e308, 1e308]},
+         "noise_probs: weights must have a finite sum > 0"),
+        ({"method": "d3dwa", "agent": {"buffer_size": 10**12}}, "buffer_size must be <= "),
+    ],
+)  # fmt: skip
+def test_a_training_config_over_a_limit_is_refused(tmp_path, capsys, config, expected):
+    path = tmp_path / "config.yaml"
+    path.write_text(yaml.safe_dump(config))
+    line = refused(capsys, "train", "--config", path, "--out", tmp_path / "run")
+    assert expected in line
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_deeply_nested_training_config_is_refused(tmp_path, capsys):
+    path = tmp_path / "deep.yaml"
+    path.write_text("method: dqdwa\nagent: " + "[" * 50_000 + "]" * 50_000 + "\n")
+    line = refused(capsys, "train", "--config", path, "--out", tmp_path / "run")
+    assert f"{path}: not valid YAML: line 2: nested more than 32 levels deep" in line
+
+
+@pytest.mark.parametrize("image", ["map.png", "map.pgm"])
+def test_a_map_image_past_the_pixel_limit_is_refused_from_its_header(tmp_path, capsys, image):
+    header = (
+        png_header(10_000, 10_000) if image.endswith("png") else b"P5\n# big\n10000 10000\n255\n"
+    )
+    (tmp_path / image).write_bytes(header)  # the header only: decoding it would fail
+    (tmp_path / "map.yaml").write_text(
+        f"image: {image}\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n"
+    )
+    line = refused(capsys, "run", "--world", tmp_path / "map.yaml", "--method", "dwa1",
+                   "--start", "0,0,0", "--goal", "1,0")  # fmt: skip
+    assert "(10000 x 10000 px): 100000000 pixels is over the limit of 50000000" in line
+
+
+def test_a_file_that_is_not_regular_is_refused(capsys):
+    line = refused(capsys, "train", "--config", "/dev/zero", "--out", Path("/nonexistent/run"))
+    assert "/dev/zero: not a regular file" in line
