@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from d3dwa_bullet.evaluation.failures import classify, primary_mode, symptoms
+from d3dwa_bullet.evaluation.failures import classify, primary_mode, recoveries, symptoms
 
 
 def log(n=100, speed=0.2, outcome="timeout", **over):
@@ -49,3 +49,16 @@ def test_the_primary_mode_is_the_first_symptom_and_a_collision_is_a_collision():
     assert classify(dict(both, outcome="collision"))["mode"] == "collision"
     assert classify(dict(both, outcome="goal"))["mode"] == "goal"
     assert primary_mode("timeout", []) == "slow"
+
+
+def test_recoveries_count_starts_and_those_followed_by_progress():
+    codes = np.array([0, 0, 1, 1, 0, 0, 0, 2, 2, 0, 0])
+    x = np.array([0, 0, 0, 0, 0.1, 0.3, 0.7, 0.7, 0.6, 0.6, 0.65])
+    log = {"recovery": codes, "est_x": x, "est_y": np.zeros_like(x), "outcome": "timeout"}
+    # the spin at step 2 is followed by 0.7 m of travel before the back-up at step 7; the
+    # back-up by 0.1 m at most, and the episode timed out
+    assert recoveries(log) == (2, 1)
+    assert recoveries(log | {"outcome": "goal"}) == (2, 2)  # the last one led to the goal
+    assert recoveries(log, radius=0.8) == (2, 0)
+    assert recoveries({"est_x": x, "est_y": x, "outcome": "goal"}) == (0, 0)  # paper track
+    assert recoveries(log | {"recovery": np.zeros(11, dtype=int)}) == (0, 0)

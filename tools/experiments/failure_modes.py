@@ -23,7 +23,7 @@ from typing import Any
 from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.failures import MODES, SYMPTOMS, classify, recoveries
 from d3dwa_bullet.evaluation.jobs import log_name
-from d3dwa_bullet.evaluation.results import job_rows, load_log, row_key
+from d3dwa_bullet.evaluation.results import job_rows, load_log, recovery_of, row_key
 from d3dwa_bullet.evaluation.sweep import PROFILES
 from d3dwa_bullet.io import atomic_savefig
 from d3dwa_bullet.methods import LABELS
@@ -92,7 +92,9 @@ def markdown(records: Sequence[dict[str, Any]], noises: Sequence[str]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def figure(records: Sequence[dict[str, Any]], noises: Sequence[str], path: Path) -> Path:
+def figure(
+    records: Sequence[dict[str, Any]], noises: Sequence[str], path: Path, note: str = ""
+) -> Path:
     # start-up cost: matplotlib only when a figure is asked for
     import matplotlib
 
@@ -119,7 +121,7 @@ def figure(records: Sequence[dict[str, Any]], noises: Sequence[str], path: Path)
         ax.set_xticks(range(len(methods)))
         ax.set_xticklabels([LABELS.get(m, m) for m in methods], rotation=60, ha="right",
                            fontsize=7)  # fmt: skip
-    axes[0].set_ylabel("episodes that failed, by primary mode [%]")
+    axes[0].set_ylabel("episodes that failed, by primary mode [%]" + note)
     fig.legend(loc="upper center", ncol=len(MODES), fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0, 1, 0.92))
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -141,11 +143,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     found = list(dict.fromkeys(r["noise"] for r in records))
     noises = sorted(found, key=lambda n: PROFILES.index(n) if n in PROFILES else len(PROFILES))
+    recovery = recovery_of(Path(args.dir))
+    note = "" if recovery == "none" else f"\nwith recovery layer {recovery}"
     if args.figure:
-        figure(records, noises, Path(args.figure))
+        figure(records, noises, Path(args.figure), note)
     if args.json:
         print(json.dumps(records, indent=1))
     else:
+        if recovery != "none":
+            print(f"Recovery layer: {recovery}\n")
         print(markdown(records, noises), end="")
         if args.figure:
             print(f"figure: {args.figure}")
