@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from d3dwa_bullet.cli.app import main
+from d3dwa_bullet.cli.options import default_methods
 from d3dwa_bullet.learning.agents import D3QNAgent, D3QNConfig, save_checkpoint
 from d3dwa_bullet.methods import default_policy_path
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
@@ -104,3 +105,8 @@ def test_a_recorded_d3dwa_pa_episode_replays_bit_for_bit(pa_policy, tmp_path):
         header = next(csv.reader(fh))
     assert tuple(header) == csv_columns(observation_layout("progress"))
     assert "obs_stalled" in header and "obs_prev_tau" in header
+
+
+def test_the_main_jobs_default_methods_leave_out_methods_without_a_policy() -> None:
+    for method in ("d3dwa-pa", "d3dwa-pa-dr"):
+        assert (method in default_methods()) == default_policy_path(method).exists()
