@@ -18,6 +18,7 @@ import numpy as np
 from d3dwa_bullet.evaluation.metrics import body_clearance, posture_displacement, trajectory_length
 from d3dwa_bullet.methods import Controller
 from d3dwa_bullet.params import (
+    PROGRESS_RADIUS,
     ObservationParams,
     PlannerParams,
     RecoveryParams,
@@ -26,6 +27,7 @@ from d3dwa_bullet.params import (
 )
 from d3dwa_bullet.planning.observation import build_observation, goal_in_body
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult, plan
+from d3dwa_bullet.planning.progress import NoProgressClock, make_observer, observation_layout
 from d3dwa_bullet.planning.recovery import Recovery, RecoveryCommand
 from d3dwa_bullet.sim.lidar import LidarParams
 from d3dwa_bullet.sim.noise import NoiseModel
@@ -138,7 +140,8 @@ class Episode:
     ``observe`` senses, judges termination on ground truth, and (if the episode goes on)
     builds the observation from the estimate; ``act`` plans with the given parameters and
     drives one control period. ``run_episode``, the Gymnasium env and the bag recorder all
-    run this same loop.
+    run this same loop. ``observation`` is the kind the controller reads (``paper``, or
+    ``progress``: docs/design.md#progress-observation).
     """
 
     def __init__(
@@ -149,8 +152,12 @@ class Episode:
         noise_name: str = "none",
         config: EpisodeConfig = EpisodeConfig(),
         gui: bool = False,
+        observation: str = "paper",
     ):
         self.world, self.seed, self.noise_name, self.config = world, seed, noise_name, config
+        self.progress = make_observer(observation)
+        """The progress entries' state (None for the paper's observation)."""
+        self.obs_dim = len(observation_layout(observation))
         limit = world.time_limit if world.time_limit is not None else config.termination.time_limit
         self.max_steps = int(round(limit * config.sim.control_hz))
         self.sim = Simulator(
@@ -167,7 +174,7 @@ class Episode:
         self.truth: list[tuple[float, float, float]] = []
         self.scan: LaserScan | None = None
         self.points = np.zeros((0, 2))
-        self.obs = np.zeros(config.observation.dim)
+        self.obs = np.zeros(self.obs_dim)
         self.estimate: tuple[tuple[float, float, float], tuple[float, float]] = (
             (0.0, 0.0, 0.0),
             (0.0, 0.0),
@@ -176,6 +183,10 @@ class Episode:
         """Ground-truth distance from base_link to the goal at the last observe(), m."""
         self.obstacle_distance = math.inf
         """Smallest true valid lidar range at the last observe(), m (inf if none)."""
+        self._truth_progress = NoProgressClock(PROGRESS_RADIUS)
+        self.stalled_s = 0.0
+        """Seconds since the true pose last made progress (left a PROGRESS_RADIUS circle), at
+        the last observe(): what the stall penalty of the reward reads."""
         self.last_plan = None
         self.recovery = (
             Recovery(
@@ -190,7 +201,8 @@ class Episode:
         """What the recovery layer drove at the last act() (None: the planner drove)."""
 
     def observe(self) -> np.ndarray:
-        """Sense and judge termination; returns the (12,) observation (the last one if over)."""
+        """Sense and judge termination; returns the observation, (12,) or (17,) by the kind
+        (the last one if over)."""
         sim, term, cfg = self.sim, self.config.termination, self.config
         t = perf()
         pose = sim.true_pose()
@@ -201,6 +213,7 @@ class Episode:
         valid = true_ranges[np.isfinite(true_ranges) & (true_ranges >= cfg.lidar.range_min)]
         self.goal_distance = math.hypot(self.world.goal[0] - pose[0], self.world.goal[1] - pose[1])
         self.obstacle_distance = float(valid.min()) if valid.size else math.inf
+        self.stalled_s = self._truth_progress.update(int(round(sim.time * 1e9)), pose)
         # Collision first: touching an obstacle inside the goal tolerance is still a collision.
         contact = sim.in_contact()
         t = sim.clock.charge("physics", t)
@@ -219,6 +232,8 @@ class Episode:
         self.obs = build_observation(
             est_pose, est_vel, self.world.goal, self.points, cfg.observation, cfg.planner.limits
         )
+        if self.progress is not None:
+            self.obs = self.progress.extend(self.obs, scan.stamp_ns, est_pose)
         sim.clock.charge("observation", t)
         return self.obs
 
@@ -230,6 +245,8 @@ class Episode:
                 f"episode is over ({self.outcome}); call observe() only before it ends"
             )
         est_pose, est_vel = self.estimate
+        if self.progress is not None:  # what the controller chose, even if a recovery drives
+            self.progress.chose(action)
         t0 = perf()
         t = self.sim.time
         goal = goal_in_body(est_pose, self.world.goal)
@@ -281,7 +298,7 @@ class Episode:
             noise=self.noise_name,
             recovery=self.config.recovery_name,
             log=log | {"true_x": poses[:, 0], "true_y": poses[:, 1], "true_yaw": poses[:, 2]},
-            observations=np.asarray(self.observations).reshape(-1, self.config.observation.dim),
+            observations=np.asarray(self.observations).reshape(-1, self.obs_dim),
         )
 
     def close(self) -> None:
@@ -322,7 +339,7 @@ def run_episode(
     on_step: StepHook | None = None,
 ) -> EpisodeResult:
     """Run one episode to goal, collision or timeout and return its metrics and log."""
-    with Episode(world, seed, noise, noise_name, config, gui) as ep:
+    with Episode(world, seed, noise, noise_name, config, gui, controller.observation) as ep:
         while True:
             obs = ep.observe()
             if ep.outcome is not None:

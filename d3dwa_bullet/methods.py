@@ -29,7 +29,12 @@ LEARNED: dict[str, ActionSet] = {
     "d3dwa-weights": ACTIONS_WEIGHTS_ONLY,
     "d3dwa": ACTIONS_FULL,
     "d3dwa-dr": ACTIONS_FULL,
+    "d3dwa-pa": ACTIONS_FULL,
+    "d3dwa-pa-dr": ACTIONS_FULL,
 }
+#: The observation kind each learned method's policy reads (docs/design.md#progress-observation);
+#: the rest read the paper's 12-d state. ``d3dwa-pa`` and ``d3dwa-pa-dr`` are beyond the paper.
+OBSERVATIONS: dict[str, str] = {"d3dwa-pa": "progress", "d3dwa-pa-dr": "progress"}
 METHODS = tuple(FIXED) + tuple(LEARNED)
 LABELS = {
     "dwa1": "DWA I (1,1,2)",
@@ -39,18 +44,22 @@ LABELS = {
     "d3dwa-weights": "D3DWA (w/o horizon)",
     "d3dwa": "D3DWA",
     "d3dwa-dr": "D3DWA (randomised)",
+    "d3dwa-pa": "D3DWA-PA (beyond paper)",
+    "d3dwa-pa-dr": "D3DWA-PA (randomised)",
 }
 
 
 @dataclass
 class Controller:
-    """Chooses (action index, PlannerAction) from an observation; index -1 for fixed methods."""
+    """Chooses (action index, PlannerAction) from an observation; index -1 for fixed methods.
+    ``observation`` is the kind it reads, which the episode loop and the replay build."""
 
     name: str
     fixed: PlannerAction | None = None
     policy: object | None = None
     actions: ActionSet | None = None
     source: str = ""
+    observation: str = "paper"
 
     def __call__(self, obs: np.ndarray) -> tuple[int, PlannerAction]:
         if self.fixed is not None:
@@ -63,6 +72,11 @@ def check_method(name: str) -> str:
     if name not in METHODS:
         raise UnknownNameError(f"unknown method {name!r}: choose one of {', '.join(METHODS)}")
     return name
+
+
+def method_observation(name: str) -> str:
+    """The observation kind a method's controller reads ("paper" or "progress")."""
+    return OBSERVATIONS.get(check_method(name), "paper")
 
 
 def default_policy_path(name: str) -> Path:
@@ -79,8 +93,11 @@ def make_controller(name: str, policy_path: str | Path | None = None) -> Control
     from d3dwa_bullet.learning.agents.policy import load_policy
 
     path, source = one_policy(name, policy_path)
-    policy, actions, _ = load_policy(path, expected_actions=LEARNED[name])
-    return Controller(name, policy=policy, actions=actions, source=source)
+    kind = method_observation(name)
+    policy, actions, _ = load_policy(
+        path, expected_actions=LEARNED[name], expected_observation=(kind, f"method {name!r}")
+    )
+    return Controller(name, policy=policy, actions=actions, source=source, observation=kind)
 
 
 def one_policy(name: str, policy_path: str | Path | None = None) -> tuple[Path, str]:

@@ -120,6 +120,39 @@ class ObservationParams:
         return 4 + self.sectors
 
 
+PROGRESS_RADIUS = 0.5
+"""Progress means leaving a circle of this radius, m (Nav2's SimpleProgressChecker default):
+the one number the recovery layer, the progress-aware observation and the stall penalty share."""
+PROGRESS_WINDOW = 10.0
+"""Nav2's movement time allowance, s: the recovery layer's window, and what the
+progress-aware observation divides the time without progress by."""
+OBSERVATION_KINDS = ("paper", "progress")
+"""What a policy reads: the paper's 12-d state, or that state and five progress entries
+(docs/design.md#progress-observation)."""
+
+
+@dataclass(frozen=True)
+class ProgressObservationParams:
+    """The five entries the ``progress`` observation appends (docs/design.md#progress-observation)."""
+
+    radius: float = PROGRESS_RADIUS
+    """Progress checker radius on the estimated pose, m."""
+    window: float = PROGRESS_WINDOW
+    """Time without progress is divided by this and clipped to 1, s."""
+    weight_max: float = 3.0
+    """The previous action's weights are divided by this (the largest of W)."""
+    tau_max: float = 5.0
+    """The previous action's horizon is divided by this, s (the largest of T)."""
+
+    def __post_init__(self) -> None:
+        for name in ("radius", "window", "weight_max", "tau_max"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise ConfigError(
+                    f"progress observation {name} must be a number > 0, got {value!r}"
+                )
+
+
 @dataclass(frozen=True)
 class TerminationParams:
     """When an episode ends (paper Table "Parameter values")."""
@@ -148,6 +181,19 @@ class RewardParams:
     obstacle_shaping: float = 0.05
     scale: float = 1.0
     """Multiplies every term (the D3QN uses 1/100)."""
+    stall_penalty: float = 0.0
+    """Added to a step that ends with the robot (ground truth) still within PROGRESS_RADIUS of
+    where it last made progress more than ``stall_after`` seconds ago (0: the paper's reward)."""
+    stall_after: float = 5.0
+    """Seconds without progress after which a step pays ``stall_penalty``."""
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.stall_penalty) and self.stall_penalty <= 0):
+            raise ConfigError(f"stall_penalty must be a number <= 0, got {self.stall_penalty!r}")
+        if not (np.isfinite(self.stall_after) and self.stall_after > 0):
+            raise ConfigError(
+                f"stall_after must be a number of seconds > 0, got {self.stall_after!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -197,9 +243,9 @@ class RecoveryParams:
 
     kind: str = "nav2"
     """Name of the recipe (a RECOVERY_KINDS value other than none)."""
-    radius: float = 0.5
+    radius: float = PROGRESS_RADIUS
     """Progress checker: required movement radius, m (Nav2 default)."""
-    window: float = 10.0
+    window: float = PROGRESS_WINDOW
     """Progress checker: movement time allowance, s (Nav2 default)."""
     sequence: tuple[str, ...] = RECOVERY_BEHAVIOURS
     """Behaviours tried in turn, one per failed progress check (Nav2's wait dropped)."""

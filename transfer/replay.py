@@ -28,7 +28,7 @@ from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D
 from transfer.bag_reader import BagData, Clock, first_goal, read_bag
-from transfer.replay_output import CSV_COLUMNS, ReplayResult, ReplayRow, plot_replay
+from transfer.replay_output import CSV_COLUMNS, ReplayResult, ReplayRow, csv_columns, plot_replay
 from transfer.replay_step import ScanStep, SkipScan, StepFn, StepOutput, observe_only
 from transfer.topics import TopicMap
 
@@ -52,15 +52,21 @@ SKIP_NO_VALID_BEAM = "all beams invalid"
 MIN_NO_RETURN_FRACTION = 0.5
 
 
-def _as_output(out: StepOutput | Mapping[str, Any]) -> StepOutput:
+def _as_output(out: StepOutput | Mapping[str, Any], dim: int) -> StepOutput:
     if not isinstance(out, StepOutput):
         out = StepOutput(**dict(out))
     obs = np.asarray(out.observation, dtype=np.float64)
-    if obs.shape != (len(OBSERVATION_LAYOUT),):
+    if obs.shape != (dim,):
         raise ValueError(
-            f"step function returned an observation of shape {obs.shape}, expected (12,)"
+            f"step function returned an observation of shape {obs.shape}, expected ({dim},)"
         )
     return out
+
+
+def observation_names(step_fn: StepFn) -> tuple[str, ...]:
+    """The observation entries a step function returns: its ``observation_layout``
+    attribute (a progress-aware pipeline's), else the paper's 12."""
+    return tuple(getattr(step_fn, "observation_layout", OBSERVATION_LAYOUT))
 
 
 def _vec(value: Any, n: int) -> np.ndarray:
@@ -154,7 +160,7 @@ def replay_bag(
         _write_json(result.files["summary"], result.summary())
         handle = result.files["csv"].open("w", newline="")
         writer = csv.writer(handle)
-        writer.writerow(CSV_COLUMNS)
+        writer.writerow(csv_columns(observation_names(step_fn)))
         handle.flush()
     started = time.perf_counter()
     try:
@@ -200,6 +206,7 @@ def _run(
         else np.full((times.size, 5), np.nan)
     )
     t0 = int(times[0])
+    dim = len(observation_names(step_fn))
     skip_reason = {-1: SKIP_BEFORE_ODOMETRY, 1: SKIP_AFTER_ODOMETRY}
     for k, scan in enumerate(bag.scans):
         reason = skip_reason.get(int(where[k]))
@@ -219,7 +226,7 @@ def _run(
             imu_w=None if math.isnan(gyro[k]) else float(gyro[k]),
         )
         try:
-            decided = _as_output(step_fn(step))
+            decided = _as_output(step_fn(step), dim)
         except SkipScan as skip:
             result.skipped[skip.reason] = result.skipped.get(skip.reason, 0) + 1
             continue

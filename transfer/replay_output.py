@@ -1,6 +1,7 @@
 """What a replay produces: one row per replayed scan, the run's summary, and its figures.
 
-``replay.csv`` has the columns ``CSV_COLUMNS`` (one ``ReplayRow`` each); ``summary.json``
+``replay.csv`` has the columns ``CSV_COLUMNS`` (one ``ReplayRow`` each; ``csv_columns`` of
+the observation layout the step function reads, when it is not the paper's); ``summary.json``
 is ``ReplayResult.summary()``; the figures are ``path.png`` (path coloured by tau),
 ``sectors.png`` (sector ranges over time) and ``commands.png`` (planner vs recorded command).
 """
@@ -17,12 +18,18 @@ import numpy as np
 from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
 from d3dwa_bullet.sim.scan import Pose2D
 
-CSV_COLUMNS = (
-    ("stamp_ns", "t", "x", "y", "yaw", "v", "w")
-    + tuple(f"obs_{name}" for name in OBSERVATION_LAYOUT)
-    + ("action", "wp", "wc", "ws", "tau", "cmd_v", "cmd_w")
-    + ("rec_cmd_v", "rec_cmd_w", "rec_wp", "rec_wc", "rec_ws", "rec_tau", "rec_action")
-)
+
+def csv_columns(layout: tuple[str, ...] = OBSERVATION_LAYOUT) -> tuple[str, ...]:
+    """The replay.csv header for an observation of entries ``layout``."""
+    return (
+        ("stamp_ns", "t", "x", "y", "yaw", "v", "w")
+        + tuple(f"obs_{name}" for name in layout)
+        + ("action", "wp", "wc", "ws", "tau", "cmd_v", "cmd_w")
+        + ("rec_cmd_v", "rec_cmd_w", "rec_wp", "rec_wc", "rec_ws", "rec_tau", "rec_action")
+    )
+
+
+CSV_COLUMNS = csv_columns()
 
 
 @dataclass(frozen=True)
@@ -139,7 +146,7 @@ def plot_replay(result: ReplayResult, out_dir: Path) -> dict[str, Path]:
 
     fig = Figure(figsize=(8, 3), layout="constrained")
     ax = fig.add_subplot()
-    sectors = obs[:, 4:]
+    sectors = obs[:, 4 : len(OBSERVATION_LAYOUT)]  # a progress observation appends more
     im = ax.imshow(
         sectors.T,
         aspect="auto",

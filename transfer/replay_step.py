@@ -71,6 +71,8 @@ class StepOutput:
 
 
 StepFn = Callable[[ScanStep], StepOutput | Mapping[str, Any]]
+"""A step function may carry an ``observation_layout`` (tuple of entry names) when its
+observation is not the paper's 12 entries; replay.csv then has a column per entry."""
 
 
 class SkipScan(Exception):

@@ -47,6 +47,7 @@ from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.geometry import wrap_angle_modular
 from d3dwa_bullet.methods import Controller, make_controller
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult
+from d3dwa_bullet.planning.progress import ProgressObserver, make_observer, observation_layout
 from d3dwa_bullet.sim.estimator import EstimatorConfig, PoseEstimator
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.world.model import World
@@ -72,15 +73,23 @@ def decide(
     points: np.ndarray,
     controller: Controller,
     config: EpisodeConfig = EpisodeConfig(),
+    progress: ProgressObserver | None = None,
+    t_ns: int = 0,
 ) -> tuple[np.ndarray, int, PlannerAction, PlanResult]:
     """One control decision from an estimate: what ``Episode.observe`` + ``act`` compute.
 
     pose: (x, y, yaw) m/rad and velocity: (v, w) m/s, rad/s, the estimate, odometry frame;
     goal: (x, y) m, same frame; points: (M, 2) float64 valid returns, m, base_link.
-    Returns (observation (12,), action index, action, plan result).
+    progress: a progress-aware controller's observer (one per bag), fed the estimated pose
+    at t_ns (int ns) as ``Episode.observe`` feeds it the simulated one.
+    Returns (observation (12,) or (17,), action index, action, plan result).
     """
     obs = observation_of(pose, velocity, goal, points, config)
+    if progress is not None:
+        obs = progress.extend(obs, t_ns, pose)
     index, action = controller(obs)
+    if progress is not None:
+        progress.chose(action)
     return obs, index, action, plan_from(pose, velocity, goal, points, action, config)
 
 
@@ -111,7 +120,8 @@ class _EkfEstimate:
 
 class ReplayPipeline:
     """A ``transfer.replay`` step function: one recorded scan -> estimate, observation,
-    action, planner command. Stateful in EKF mode (one instance per replay)."""
+    action, planner command. Stateful in EKF mode and for a progress-aware controller (time
+    since progress on the estimate, the previous action): one instance per replay."""
 
     def __init__(
         self,
@@ -129,6 +139,8 @@ class ReplayPipeline:
         self.config = config
         self.estimator = estimator
         self._ekf = _EkfEstimate(estimator_config) if estimator == "ekf" else None
+        self.progress = make_observer(controller.observation)
+        self.observation_layout = observation_layout(controller.observation)
 
     def __call__(self, step: ScanStep) -> StepOutput:
         if self._ekf is not None:
@@ -138,8 +150,9 @@ class ReplayPipeline:
         if not (np.isfinite(pose).all() and np.isfinite(velocity).all()):
             raise SkipScan(SKIP_NON_FINITE_ESTIMATE)
         obs, index, action, result = decide(
-            pose, velocity, step.goal, step.points(), self.controller, self.config
-        )
+            pose, velocity, step.goal, step.points(), self.controller, self.config,
+            self.progress, step.t_ns,
+        )  # fmt: skip
         return StepOutput(
             observation=obs,
             pose=pose,

@@ -5,13 +5,15 @@ plans with it and the robot drives one control period (``Episode.act``), then th
 senses (``Episode.observe``). Spaces:
 
 - observation: ``Box(12,)`` float32, the vector of docs/design.md#observation ``[d_g, theta_g, v, w,
-  l_1..l_8]`` with bounds d_g in [0, 1], theta_g, v, w in [-1, 1], sectors in [0, 1];
+  l_1..l_8]`` with bounds d_g in [0, 1], theta_g, v, w in [-1, 1], sectors in [0, 1]; with
+  ``observation="progress"`` ``Box(17,)``, five more entries in [0, 1] (``planning.progress``);
 - action: ``Discrete(100)`` (W = {1, 2, 3}, T = {2, 3, 4, 5} s), or ``Discrete(25)`` with
   ``weights_only=True`` (tau = 4 s), or any ``ActionSet`` passed as ``actions``.
 
 Reward R1 + R2 + R3 (``reward.reward``) on the ground-truth goal and nearest-obstacle
 distances the Episode measures, scaled by ``reward_scale`` (0.01 for the D3QN, 1 for
-the tabular baseline). Goal and collision *terminate*; the time limit *truncates*.
+the tabular baseline), and a stall penalty if ``reward_params`` sets one. Goal and
+collision *terminate*; the time limit *truncates*.
 
 Every episode draws its task from the env's seeded generator (``tasks.TaskSampler``): a
 world from ``worlds`` (names or files) or, with probability ``generator_prob``, a fresh
@@ -68,15 +70,15 @@ from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.learning.render import (
     RenderParams,
     TopDownCanvas,
-    body_to_world,
     check_render_mode,
-    rollout_path,
+    episode_frame,
 )
 from d3dwa_bullet.learning.reward import reward
 from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, TaskSampler, check_reset_options
 from d3dwa_bullet.params import RecoveryParams, RewardParams, recovery_params
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
 from d3dwa_bullet.planning.planner import PlannerAction
+from d3dwa_bullet.planning.progress import check_observation_kind, observation_layout
 from d3dwa_bullet.timing import StageClock, perf
 from d3dwa_bullet.world.model import World
 
@@ -105,6 +107,7 @@ class D3DWAEnv(gym.Env):
         (``route_start``; never for generated layouts or a world pinned by reset options).
     render_mode: None, "rgb_array" (top-down frames from ``render()``) or "human" (the
         PyBullet GUI, paced to the control rate).
+    observation: the kind the agent reads, "paper" (12-d) or "progress" (17-d).
     """
 
     metadata: dict[str, Any] = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
@@ -126,8 +129,10 @@ class D3DWAEnv(gym.Env):
         route_start_span: float = 0.8,
         render_mode: str | None = None,
         recovery: str | RecoveryParams | None = None,
+        observation: str = "paper",
     ) -> None:
         super().__init__()
+        self.observation_kind = check_observation_kind(observation, "D3DWAEnv observation")
         if recovery is not None:
             params = recovery if isinstance(recovery, RecoveryParams) else recovery_params(recovery)
             episode_config = replace(episode_config, recovery=params)
@@ -153,7 +158,7 @@ class D3DWAEnv(gym.Env):
         if not (math.isfinite(self.reward_params.scale) and self.reward_params.scale > 0):
             raise ConfigError(f"reward_scale must be > 0, got {self.reward_params.scale!r}")
         self.episode_config = episode_config
-        self.observation_space = observation_space(episode_config.observation.dim)
+        self.observation_space = observation_space(len(observation_layout(observation)))
         self.action_space = spaces.Discrete(actions.size)
 
         self.episode: Episode | None = None
@@ -220,6 +225,7 @@ class D3DWAEnv(gym.Env):
             noise_name=noise_name,
             config=self.episode_config,
             gui=self.render_mode == "human",
+            observation=self.observation_kind,
         )
         self.last_action = None
         self.clock.charge("reset", t0)
@@ -251,8 +257,9 @@ class D3DWAEnv(gym.Env):
         obs = self._observation(ep.observe())
         outcome = ep.outcome
         r = reward(
-            outcome, d_goal, ep.goal_distance, d_obs, ep.obstacle_distance, self.reward_params
-        )  # type: ignore[arg-type]
+            outcome, d_goal, ep.goal_distance, d_obs, ep.obstacle_distance, self.reward_params,
+            ep.stalled_s,
+        )  # type: ignore[arg-type]  # fmt: skip
         terminated = outcome in ("goal", "collision")
         truncated = outcome == "timeout"
         info = self._info(outcome)
@@ -286,28 +293,7 @@ class D3DWAEnv(gym.Env):
                 RenderParams(goal_tolerance=self.episode_config.termination.goal_tolerance),
                 self.episode_config.planner.footprint,
             )
-        pose = ep.truth[-1]
-        rollout = None
-        plan, action = ep.last_plan, self.last_action
-        if plan is not None and action is not None and len(ep.truth) > 1:
-            # planned at the pose before the last control period; (v, w) is the chosen
-            # sample (the fallback's too)
-            path = rollout_path(plan.v, plan.w, action.tau, self.episode_config.planner.dt)
-            rollout = body_to_world(ep.truth[-2], path)
-        t = ep.sim.step_count * self.episode_config.sim.control_period
-        text = f"{self.world.name}  t = {t:.1f} s"
-        if action is not None:
-            text += f"  tau = {action.tau:g} s"
-        if ep.outcome is not None:
-            text += f"  {ep.outcome}"
-        return self._canvas.frame(
-            pose,
-            ep.points,
-            rollout=rollout,
-            fallback=bool(plan is not None and plan.fallback),
-            trail=np.asarray(ep.truth)[:, :2],
-            text=text,
-        )
+        return episode_frame(self._canvas, ep, self.last_action)
 
     def close(self) -> None:
         self._close_episode()

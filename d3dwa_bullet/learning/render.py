@@ -22,6 +22,7 @@ import os
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -29,7 +30,11 @@ import numpy as np
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.geometry import body_outline
 from d3dwa_bullet.params import Footprint
+from d3dwa_bullet.planning.planner import PlannerAction
 from d3dwa_bullet.world.model import World, obstacle_outline
+
+if TYPE_CHECKING:  # for the annotation only: drawing needs no simulator
+    from d3dwa_bullet.episode import Episode
 
 RGB = tuple[int, int, int]
 
@@ -224,3 +229,30 @@ class TopDownCanvas:
 
 def _aligned(pixels: float) -> int:
     return max(ALIGN, ALIGN * math.ceil(pixels / ALIGN))
+
+
+def episode_frame(canvas: TopDownCanvas, ep: Episode, action: PlannerAction | None) -> np.ndarray:
+    """The frame of an episode now: the robot at its true pose, its trail and scan, and the
+    rollout it chose at the last step with ``action`` (None before the first step)."""
+    config = ep.config
+    rollout = None
+    plan = ep.last_plan
+    if plan is not None and action is not None and len(ep.truth) > 1:
+        # planned at the pose before the last control period; (v, w) is the chosen
+        # sample (the fallback's too)
+        path = rollout_path(plan.v, plan.w, action.tau, config.planner.dt)
+        rollout = body_to_world(ep.truth[-2], path)
+    t = ep.sim.step_count * config.sim.control_period
+    text = f"{ep.world.name}  t = {t:.1f} s"
+    if action is not None:
+        text += f"  tau = {action.tau:g} s"
+    if ep.outcome is not None:
+        text += f"  {ep.outcome}"
+    return canvas.frame(
+        ep.truth[-1],
+        ep.points,
+        rollout=rollout,
+        fallback=bool(plan is not None and plan.fallback),
+        trail=np.asarray(ep.truth)[:, :2],
+        text=text,
+    )

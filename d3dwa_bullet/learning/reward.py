@@ -6,6 +6,9 @@ R1 (outcome):   r_goal                    on reaching the goal (no step penalty,
                 r_step                    otherwise
 R2 (goal):      +gc if the goal distance shrank, -gc if it grew, 0 if unchanged
 R3 (obstacle):  -oc if the nearest-obstacle distance shrank, +oc if it grew, 0 if unchanged
+Stall (beyond the paper, off by default): ``stall_penalty`` on a step that does not reach
+                the goal and ends more than ``stall_after`` s after the robot last made
+                progress (left a PROGRESS_RADIUS circle; docs/design.md#stall-penalty)
 
 Every term is multiplied by ``RewardParams.scale`` (1 for the tabular DQDWA baseline,
 1/100 for the D3QN agents). R2 and R3 apply on every step, terminal ones included. The
@@ -39,6 +42,7 @@ def reward(
     d_obs_prev: float,
     d_obs: float,
     params: RewardParams,
+    stalled_s: float = 0.0,
 ) -> float:
     """The reward of one control step.
 
@@ -46,6 +50,8 @@ def reward(
     d_goal_prev, d_goal: goal distance before / after the step, m.
     d_obs_prev, d_obs: distance to the nearest obstacle before / after the step, m
         (``inf`` when nothing is in range; two ``inf`` compare equal).
+    stalled_s: seconds since the robot last made progress, at the end of the step (ground
+        truth, like the distances); only read when ``params.stall_penalty`` is not 0.
     Raises UnknownNameError for any other outcome and ValueError for a NaN distance.
     """
     if outcome is None:
@@ -60,6 +66,8 @@ def reward(
         raise UnknownNameError(
             f"reward: unknown outcome {outcome!r}, expected None or one of {OUTCOMES}"
         )
+    if outcome != "goal" and params.stall_penalty and stalled_s > params.stall_after:
+        r1 += params.stall_penalty
     r2 = params.goal_shaping * _sign(d_goal_prev, d_goal, "goal")
     r3 = -params.obstacle_shaping * _sign(d_obs_prev, d_obs, "obstacle")
     return float(params.scale * (r1 + r2 + r3))

@@ -220,3 +220,34 @@ def test_human_render_mode_without_a_display_is_refused(open_world: World, monke
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     with pytest.raises(ConfigError, match="render_mode='human' .* no display .* DISPLAY"):
         D3DWAEnv(worlds=(open_world,), render_mode="human")
+
+
+def test_progress_observation_space_and_unknown_kinds(open_world: World) -> None:
+    env = D3DWAEnv(worlds=(open_world,), observation="progress")
+    assert env.observation_space.shape == (17,)
+    np.testing.assert_array_equal(env.observation_space.low, [0, -1, -1, -1] + [0] * 13)
+    paper = D3DWAEnv(worlds=(open_world,))
+    (obs, _), (obs12, _) = env.reset(seed=3), paper.reset(seed=3)
+    assert env.observation_space.contains(obs) and obs[12:].tolist() == [0.0] * 5
+    for _ in range(3):
+        obs, *_ = env.step(PROGRESS)
+        obs12, *_ = paper.step(PROGRESS)
+    np.testing.assert_array_equal(obs[:12], obs12)  # the paper's entries, unchanged
+    np.testing.assert_allclose(obs[13:], [1.0, 1 / 3, 2 / 3, 0.6], rtol=1e-6)
+    env.close()
+    paper.close()
+    with pytest.raises(ConfigError, match="D3DWAEnv observation: unknown observation kind 'lidar'"):
+        D3DWAEnv(worlds=(open_world,), observation="lidar")
+
+
+def test_stall_penalty_reaches_the_env_reward(open_world: World) -> None:
+    # the robot cannot leave a 0.5 m circle in 0.3 s: every step after stall_after pays
+    priced = RewardParams(scale=0.01, stall_penalty=-1.0, stall_after=0.15)
+    env, paper = (
+        D3DWAEnv(worlds=(open_world,), reward_params=priced),
+        D3DWAEnv(worlds=(open_world,)),
+    )
+    rewards = np.array([[s[1] for s in _run(e, [PROGRESS] * 3, 5)[1:]] for e in (env, paper)])
+    np.testing.assert_allclose(rewards[0] - rewards[1], [0.0, -0.01, -0.01], atol=1e-12)
+    env.close()
+    paper.close()

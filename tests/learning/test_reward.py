@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from d3dwa_bullet.errors import UnknownNameError
+from d3dwa_bullet.errors import ConfigError, UnknownNameError
 from d3dwa_bullet.learning.reward import reward
 from d3dwa_bullet.params import RewardParams
 
@@ -61,3 +61,24 @@ def test_unknown_outcome() -> None:
 def test_nan_distance(args) -> None:
     with pytest.raises(ValueError, match="NaN"):
         reward(None, *args, BASE)
+
+
+def test_stall_penalty_is_off_by_default_and_priced_only_after_stall_after() -> None:
+    stalled = RewardParams(stall_penalty=-0.02, stall_after=5.0, scale=0.01)
+    for outcome in (None, "collision", "timeout"):
+        paper = reward(outcome, 2.0, 2.0, 1.0, 1.0, RewardParams(scale=0.01), 60.0)
+        assert paper == reward(outcome, 2.0, 2.0, 1.0, 1.0, RewardParams(scale=0.01))
+        assert reward(outcome, 2.0, 2.0, 1.0, 1.0, stalled, 5.0) == paper  # not yet
+        assert reward(outcome, 2.0, 2.0, 1.0, 1.0, stalled, 5.1) == pytest.approx(paper - 0.0002)
+    # reaching the goal is progress: never charged
+    assert reward("goal", 2.0, 0.05, 1.0, 1.0, stalled, 30.0) == pytest.approx(0.501)
+
+
+@pytest.mark.parametrize(
+    ("changes", "field"),
+    [({"stall_penalty": 0.1}, "stall_penalty"), ({"stall_after": 0.0}, "stall_after"),
+     ({"stall_penalty": math.nan}, "stall_penalty")],
+)  # fmt: skip
+def test_bad_stall_fields_are_refused_by_name(changes: dict, field: str) -> None:
+    with pytest.raises(ConfigError, match=field):
+        RewardParams(**changes)

@@ -18,9 +18,10 @@ from d3dwa_bullet.seed_dirs import seed_dirs
 
 MIN_SEEDS = 5
 """The learning protocol's minimum (docs/design.md#learning-protocol)."""
-SHORT_OF_TARGET: dict[str, int] = {}
+SHORT_OF_TARGET: dict[str, int] = {"d3dwa-pa": 0, "d3dwa-pa-dr": 0}
 """Methods whose remaining seeds are still training (resumable with --resume), with the
-number shipped so far; empty once every method has MIN_SEEDS."""
+number shipped so far; empty once every method has MIN_SEEDS. The progress-aware methods
+(beyond the paper) have their committed configs and no seed yet."""
 
 OBSERVATIONS = np.array(
     [
@@ -87,7 +88,7 @@ def test_every_learned_method_ships_its_seeds_of_one_experiment(method: str) -> 
     assert not (folder / "meta.json").exists()  # no single policy beside the seeds
     check_one_experiment(folder, seeds)  # one config (but the seed) and one action set
     budgets = {load_train_config(p / "config.json").total_steps for p in seeds.values()}
-    assert len(budgets) == 1
+    assert len(budgets) == (1 if seeds else 0)
 
 
 @pytest.mark.parametrize(("method", "seed"), SEEDS)

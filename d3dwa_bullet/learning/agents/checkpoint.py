@@ -52,6 +52,7 @@ from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
 from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
+from d3dwa_bullet.planning.progress import kind_of_layout
 
 FORMAT_VERSION = 1
 META_FILE = "meta.json"
@@ -261,12 +262,13 @@ def load_checkpoint(
     *,
     expected_actions: ActionSet | None = None,
     expected_layout: Sequence[str] | None = OBSERVATION_LAYOUT,
+    reader: str = "the caller",
 ) -> tuple[Agent, dict[str, Any]]:
     """Load an agent saved by ``save_checkpoint``: returns (agent, meta).
 
     expected_actions: if given, the checkpoint's action set must equal it.
     expected_layout: the observation names the caller will feed (default: the package's
-    12-d layout); None skips the check. Any mismatch of layout, dimension, action set,
+    12-d layout); None skips the check. reader: who feeds it, for the message (a method). Any mismatch of layout, dimension, action set,
     format version, tensor shape, or a truncated/corrupt file raises CheckpointError naming
     the file and what did not match.
     """
@@ -282,6 +284,12 @@ def load_checkpoint(
             f"{meta_path}: observation dim {dim!r} disagrees with its layout of {len(layout)} names"
         )
     if expected_layout is not None and layout != list(expected_layout):
+        have, want = kind_of_layout(layout), kind_of_layout(tuple(expected_layout))
+        if have is not None and want is not None:
+            raise CheckpointError(
+                f"{meta_path}: the policy reads the {have!r} observation ({dim} entries) but "
+                f"{reader} feeds the {want!r} observation ({len(expected_layout)} entries)"
+            )
         raise CheckpointError(
             f"{meta_path}: observation layout {layout} (dim {dim}) differs from the expected "
             f"{list(expected_layout)} (dim {len(expected_layout)})"

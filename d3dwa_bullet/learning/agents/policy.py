@@ -21,6 +21,7 @@ from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
 from d3dwa_bullet.learning.agents.network import DuelingQNetwork
 from d3dwa_bullet.planning.actions import ActionSet
+from d3dwa_bullet.planning.progress import observation_layout
 
 
 class Policy(Protocol):
@@ -79,13 +80,24 @@ def greedy_policy(agent: Agent) -> Policy:
 
 
 def load_policy(
-    path: str | os.PathLike[str], *, expected_actions: ActionSet | None = None
+    path: str | os.PathLike[str],
+    *,
+    expected_actions: ActionSet | None = None,
+    expected_observation: tuple[str, str] = ("paper", "the caller"),
 ) -> tuple[Policy, ActionSet, dict[str, Any]]:
     """Greedy policy of a checkpoint directory of either agent: (policy, action set, meta).
 
-    Raises CheckpointError as ``load_checkpoint`` does.
+    expected_observation: (kind, who feeds it): the observation kind the policy must read,
+    and, for the message, the method that will feed it. Raises CheckpointError as
+    ``load_checkpoint`` does (a policy of the other kind: one line naming both).
     """
-    agent, meta = load_checkpoint(path, expected_actions=expected_actions)
+    kind, reader = expected_observation
+    agent, meta = load_checkpoint(
+        path,
+        expected_actions=expected_actions,
+        expected_layout=observation_layout(kind),
+        reader=reader,
+    )
     try:
         policy = greedy_policy(agent)
     except TypeError as err:  # pragma: no cover - load_checkpoint only builds known agents

@@ -63,6 +63,7 @@ def run_metadata(
         "generators": list(c.generators),
         "noise": list(c.noise),
         "reward_scale": c.reward_scale,
+        "observation": c.observation,
         **dict(extra or {}),
     }
 
@@ -85,7 +86,9 @@ def load_latest(out: Path, config: TrainConfig) -> tuple[Agent, dict[str, Any]]:
     """The agent of ``checkpoints/latest`` with its training state restored, and the
     trainer's state saved beside it (CheckpointError if anything does not fit)."""
     latest = checkpoint_dir(out, "latest")
-    agent, _ = load_checkpoint(latest, expected_actions=config.actions)
+    agent, _ = load_checkpoint(
+        latest, expected_actions=config.actions, expected_layout=config.obs_layout
+    )
     return agent, restore_training_state(latest, agent)
 
 
@@ -115,7 +118,7 @@ def export_policy(
     learning curve, without any training state (what ``policies/<method>/`` holds)."""
     run = Path(run_dir)
     src = checkpoint_dir(run, which)
-    agent, meta = load_checkpoint(src)
+    agent, meta = load_checkpoint(src, expected_layout=None)  # copied as it is
     extra: dict[str, Any] = {CONFIG_FILE: run / CONFIG_FILE}
     if (run / CURVE_FILE).exists():
         extra[CURVE_FILE] = run / CURVE_FILE

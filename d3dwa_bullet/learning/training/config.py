@@ -23,14 +23,13 @@ from d3dwa_bullet.learning.env import D3DWAEnv
 from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, resolve_world
 from d3dwa_bullet.limits import check_processes, check_weights
 from d3dwa_bullet.loading import load_yaml
-from d3dwa_bullet.methods import LEARNED
+from d3dwa_bullet.methods import LEARNED, method_observation
+from d3dwa_bullet.params import RewardParams
 from d3dwa_bullet.planning.actions import ActionSet
-from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
+from d3dwa_bullet.planning.progress import check_observation_kind, observation_layout
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
 from d3dwa_bullet.world.registry import world_names
 
-OBS_DIM = len(OBSERVATION_LAYOUT)
-"""Observation size of every learned method (the replay buffer's row width)."""
 #: Reward scale by agent family: the D3QN uses the baseline magnitudes / 100 (paper).
 DEFAULT_REWARD_SCALE = {"d3qn": 0.01, "dqdwa": 1.0}
 CURRICULA = ("uniform", "adaptive")
@@ -80,6 +79,14 @@ class TrainConfig:
     """Weight of a task solved every time, relative to 1 + floor for one never solved."""
     reward_scale: float | None = None
     """Multiplies every reward term; None: 0.01 for the D3QN methods, 1.0 for dqdwa."""
+    observation: str | None = None
+    """What the agent reads: 'paper' (the 12-d state) or 'progress' (17-d,
+    docs/design.md#progress-observation); None: the method's (d3dwa-pa*: progress)."""
+    stall_penalty: float = 0.0
+    """Reward added (before reward_scale) to a step ending more than ``stall_after`` s after
+    the robot last made progress; 0: the paper's reward (docs/design.md#stall-penalty)."""
+    stall_after: float = 5.0
+    """Seconds without progress (ground truth, 0.5 m circle) before the stall penalty."""
     weights: tuple[float, ...] | None = None
     """Weight candidates W; None: the method's action set."""
     horizons: tuple[float, ...] | None = None
@@ -142,6 +149,16 @@ class TrainConfig:
         set_("agent", replace(agent, seed=int(self.seed)))
         if self.reward_scale is None:
             set_("reward_scale", DEFAULT_REWARD_SCALE[family])
+        kind = method_observation(self.method)
+        if self.observation is None:
+            set_("observation", kind)
+        check_observation_kind(self.observation, "TrainConfig.observation")
+        if self.observation != kind:
+            raise ConfigError(
+                f"TrainConfig.observation: method {self.method!r} reads the {kind!r} "
+                f"observation, got {self.observation!r}"
+            )
+        _ = self.reward_params  # ConfigError naming stall_penalty / stall_after if out of range
         if type(self.n_envs) is int and self.n_envs == 0:
             set_("n_envs", os.cpu_count() or 1)
         checks: list[tuple[str, bool, str]] = [
@@ -196,6 +213,23 @@ class TrainConfig:
     def family(self) -> str:
         """Agent family: 'd3qn' or 'dqdwa'."""
         return "dqdwa" if self.method == "dqdwa" else "d3qn"
+
+    @property
+    def obs_layout(self) -> tuple[str, ...]:
+        """The names of the observation entries the agent reads."""
+        return observation_layout(str(self.observation))
+
+    @property
+    def reward_params(self) -> RewardParams:
+        """The reward of the run (the paper's, scaled, unless a stall penalty is set)."""
+        try:
+            return RewardParams(
+                scale=float(self.reward_scale),  # type: ignore[arg-type]
+                stall_penalty=float(self.stall_penalty),
+                stall_after=float(self.stall_after),
+            )
+        except ConfigError as err:
+            raise ConfigError(f"TrainConfig.{err}") from err
 
     @property
     def actions(self) -> ActionSet:
@@ -286,7 +320,7 @@ def check_run_limits(config: TrainConfig) -> None:
     when a config loads (a config.json written on a larger machine stays readable)."""
     check_processes("n_envs", config.n_envs)
     if isinstance(config.agent, D3QNConfig):
-        check_replay_memory(config.agent.buffer_size, OBS_DIM, "agent.buffer_size")
+        check_replay_memory(config.agent.buffer_size, len(config.obs_layout), "agent.buffer_size")
 
 
 def check_selection_rule(config: TrainConfig) -> None:
@@ -322,7 +356,8 @@ def make_env(config: TrainConfig, worlds: Sequence[str] | None = None) -> D3DWAE
         return D3DWAEnv(
             worlds=tuple(worlds),
             actions=config.actions,
-            reward_scale=float(config.reward_scale),  # type: ignore[arg-type]
+            reward_params=config.reward_params,
+            observation=str(config.observation),
         )
     return D3DWAEnv(
         worlds=config.worlds,
@@ -331,9 +366,10 @@ def make_env(config: TrainConfig, worlds: Sequence[str] | None = None) -> D3DWAE
         noise=config.noise,
         noise_probs=config.noise_probs,
         actions=config.actions,
-        reward_scale=float(config.reward_scale),  # type: ignore[arg-type]
+        reward_params=config.reward_params,
         route_start_prob=config.route_start_prob,
         route_start_span=config.route_start_span,
+        observation=str(config.observation),
     )
 
 
@@ -341,4 +377,4 @@ def make_agent(config: TrainConfig) -> D3QNAgent | DQDWAAgent:
     """A fresh agent of the config's family, action set and hyper-parameters."""
     if config.family == "dqdwa":
         return DQDWAAgent(config.actions, config.agent)  # type: ignore[arg-type]
-    return D3QNAgent(config.actions, config.agent)  # type: ignore[arg-type]
+    return D3QNAgent(config.actions, config.agent, config.obs_layout)  # type: ignore[arg-type]
