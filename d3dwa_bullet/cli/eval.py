@@ -25,6 +25,7 @@ from d3dwa_bullet.cli.options import (
     workers_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
+from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.limits import MAX_EPISODES, MAX_SEED_VALUE, MAX_SEEDS
@@ -106,14 +107,16 @@ def cmd_eval(args: argparse.Namespace) -> int:
     }  # fmt: skip
     if policy:
         settings["policy"] = str(Path(policy).resolve())
-    rows = evaluate(
-        jobs, out, workers=workers, config=config, progress=not args.json,
-        ray_address=args.ray, settings=settings,
-    )  # fmt: skip
-    table = eval_markdown(rows, methods, names, seeds, args.noise, recovery=config.recovery_name)
-    atomic_write_text(out / "table.md", table)
-    atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names))
-    figures = world_figures(out, worlds, methods, seeds[0], args.noise, figure_seeds(rows))
+    with locked_dir(out):  # one writer: the episodes, then the tables and figures
+        rows = evaluate(
+            jobs, out, workers=workers, config=config, progress=not args.json,
+            ray_address=args.ray, settings=settings,
+        )  # fmt: skip
+        recovery = config.recovery_name
+        table = eval_markdown(rows, methods, names, seeds, args.noise, recovery=recovery)
+        atomic_write_text(out / "table.md", table)
+        atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names))
+        figures = world_figures(out, worlds, methods, seeds[0], args.noise, figure_seeds(rows))
     if args.json:
         print(json_text(rows))
     else:

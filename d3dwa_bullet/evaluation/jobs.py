@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
+from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig, EpisodeResult, run_episode
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.backends import open_backend
@@ -145,9 +146,24 @@ def evaluate(
     in meta.json for ``d3dwa report``. Rows are appended as episodes finish; once every job
     is in, results.csv is rewritten in the order of jobs, whatever the backend. A directory
     whose rows these jobs would not resume or extend is refused before any episode runs
-    (ResultsError from :func:`~d3dwa_bullet.evaluation.results.check_same_run`).
+    (ResultsError from :func:`~d3dwa_bullet.evaluation.results.check_same_run`), and so is
+    one another process is writing (BusyError): the directory is locked
+    (:mod:`d3dwa_bullet.dir_lock`) from before its first write to the return.
     """
-    out = Path(out)
+    with locked_dir(out):
+        return _evaluate(jobs, Path(out), workers, config, progress, ray_address, fields, settings)
+
+
+def _evaluate(
+    jobs: Sequence[Job],
+    out: Path,
+    workers: int,
+    config: EpisodeConfig,
+    progress: bool,
+    ray_address: str | None,
+    fields: Sequence[str],
+    settings: dict[str, Any] | None,
+) -> list[dict[str, Any]]:
     recovery = config.recovery_name
     fields = with_recovery(fields, recovery)
     settings = dict(settings or {"kind": "eval"})

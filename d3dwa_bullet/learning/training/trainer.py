@@ -33,6 +33,7 @@ from tqdm import tqdm
 import d3dwa_bullet.learning.training.checkpoints as checkpoints
 import d3dwa_bullet.learning.training.greedy_eval as greedy_eval
 import d3dwa_bullet.learning.training.run_dir as run_dir
+from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import TrainingError
 from d3dwa_bullet.learning.agents.checkpoint import Agent
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
@@ -372,5 +373,8 @@ def train(
     equal the saved one except for total_steps (to extend a run). ConfigError for a bad
     config, an existing run without ``resume``, or nothing to resume. The summary's
     "status" is "done" or "interrupted" (Ctrl-C: ``latest`` was saved, resume later).
+    BusyError if another process is training into ``out_dir`` (:mod:`d3dwa_bullet.dir_lock`):
+    the directory is locked before anything is read or written in it.
     """
-    return Trainer(config, out_dir, resume).run(progress)
+    with locked_dir(out_dir):
+        return Trainer(config, out_dir, resume).run(progress)
