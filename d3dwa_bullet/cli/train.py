@@ -163,7 +163,7 @@ def _train_seeds(args: argparse.Namespace) -> int:
         if args.json:
             return
         what = {"done": "done", "skipped": "already complete", "interrupted": "interrupted",
-                "failed": f"FAILED: {o.error}"}[o.status]  # fmt: skip
+                "failed": f"FAILED: {o.error}", "stopped": "not started (interrupted)"}[o.status]  # fmt: skip
         print(
             f"seed {o.seed}: {what} ({o.out})" + (f", exported {o.exported}" if o.exported else "")
         )
@@ -189,6 +189,11 @@ def _train_seeds(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
-    if any(o.status == "interrupted" for o in outcomes):
+    if any(o.status in ("interrupted", "stopped") for o in outcomes):
+        print(
+            f"d3dwa: interrupted; finished seeds are kept: continue with d3dwa train --config "
+            f"{args.config} --seeds {args.seeds} --out {args.out} --resume",
+            file=sys.stderr,
+        )
         return 130
     return 0

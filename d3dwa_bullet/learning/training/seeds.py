@@ -7,6 +7,9 @@ With ``--resume`` a seed whose run is complete is skipped, one with a checkpoint
 and one never started starts. A seed that fails is reported and the others still run; the
 failed ones resume later. ``--export DIR`` ships every finished seed as ``DIR/seed-<k>/``.
 
+Ctrl-C stops the whole command at the next safe point: the seed training stops at its next
+step boundary (or after its final evaluation) and saves ``latest``, the seeds after it never
+start (status "stopped"), every finished seed is kept, and ``--resume`` goes on from there.
 ``<out>`` is locked while the command runs and each ``seed-<k>/`` while its seed trains
 (:mod:`d3dwa_bullet.dir_lock`): a second command into either is refused, not interleaved.
 
@@ -29,6 +32,7 @@ from d3dwa_bullet.evaluation.backends import check_address, ray_session
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.learning.training.checkpoints import export_policy
 from d3dwa_bullet.learning.training.config import TrainConfig, check_selection_rule
+from d3dwa_bullet.learning.training.interrupt import StopOnInterrupt
 from d3dwa_bullet.learning.training.run_dir import SUMMARY_FILE
 from d3dwa_bullet.learning.training.trainer import train
 from d3dwa_bullet.loading import load_json
@@ -42,7 +46,8 @@ class SeedOutcome:
     seed: int
     out: Path
     status: str
-    """'done', 'skipped' (already complete), 'interrupted' or 'failed'."""
+    """'done', 'skipped' (already complete), 'interrupted', 'failed' or 'stopped' (not
+    started: the command was interrupted before this seed)."""
     summary: dict[str, Any] | None = None
     error: str | None = None
     exported: Path | None = None
@@ -70,7 +75,7 @@ def train_seeds(
 
     Without ``resume``, ConfigError if any seed's directory already holds a run (before
     anything trains). BusyError if another process writes ``out`` or a seed's directory.
-    A KeyboardInterrupt stops after the current seed's checkpoint.
+    Ctrl-C (SIGINT) stops after the current seed's checkpoint (module docstring).
     """
     out = Path(out)
     if not seeds:
@@ -115,18 +120,23 @@ def _train_seeds(
     if ray_address is not None:
         outcomes += _train_on_ray(config, todo, ray_address, export, on_seed)
         return sorted(outcomes, key=lambda o: order[o.seed])
-    for seed, run, again in todo:
-        try:
-            summary = train(replace(config, seed=seed), run, resume=again, progress=progress)
-        except BusyError:  # another command trains this seed: not this seed's failure
-            raise
-        except D3DWAError as err:
-            outcome = SeedOutcome(seed, run, "failed", error=str(err))
-        else:
-            outcome = SeedOutcome(seed, run, summary["status"], summary=summary)
-        outcomes.append(_finish(outcome, config, export, on_seed))
-        if outcome.status == "interrupted":
-            break
+    with StopOnInterrupt() as stop:  # each seed's training holds its own inside this one
+        for seed, run, again in todo:
+            if stop.requested:  # Ctrl-C: no further seed starts
+                outcome = SeedOutcome(seed, run, "stopped")
+            else:
+                try:
+                    summary = train(replace(config, seed=seed), run, resume=again,
+                                    progress=progress)  # fmt: skip
+                except BusyError:  # another command trains this seed: not this seed's failure
+                    raise
+                except D3DWAError as err:
+                    outcome = SeedOutcome(seed, run, "failed", error=str(err))
+                else:
+                    outcome = SeedOutcome(seed, run, summary["status"], summary=summary)
+                    if outcome.status == "interrupted":
+                        stop.requested = True
+            outcomes.append(_finish(outcome, config, export, on_seed))
     return sorted(outcomes, key=lambda o: order[o.seed])
 
 

@@ -15,7 +15,9 @@ it (``state``).
 Failure safety: checkpoints are swapped in atomically; an exception in the loop saves
 nothing (the last good ``latest`` stays); non-finite weights are never saved; Ctrl-C
 (SIGINT) stops at the next step boundary, saves ``latest`` and returns with status
-"interrupted" (a second Ctrl-C aborts at once, saving nothing).
+"interrupted" (a second Ctrl-C aborts at once, saving nothing). A Ctrl-C during the final
+evaluation lets it finish, saves ``latest`` with it and returns "interrupted" too; the
+resume then only saves ``final`` and the policy.
 """
 
 from __future__ import annotations
@@ -186,6 +188,8 @@ class Trainer:
                 ):
                     self._evaluate_and_keep(logs, agent, bar)
                 self._save_latest(agent, logs, collector)
+                if stop.requested:  # Ctrl-C during the final evaluation: resume ends the run
+                    status = "interrupted"
                 if status == "done":
                     final_eval = p.evals[-1] if p.evals else None
                     self.save_policy("final", agent, {"selected": "final", "eval": final_eval})
