@@ -89,6 +89,14 @@ MAX_TIME_LIMIT_S = Limit(3600.0, "an episode is a minute of simulated time; an h
 """Episode time limit, seconds of simulated time (``--time-limit`` and a world's
 ``time_limit``); the paper's episodes last 60 s."""
 
+MAX_STEM_BYTES = Limit(
+    160, "a file name has at most 255 bytes, some taken by its suffix and a temporary name"
+)
+"""Bytes (UTF-8) of the part of a file name made from a name the user gave: a world's
+``name:`` in ``figures/<world>_time.png``, an episode's key in ``logs/``. A longer name is
+cut and ends in a hash of the whole (:func:`d3dwa_bullet.io.file_stem`), so it stays unique;
+the atomic writer's temporary name adds 14 bytes to the final one."""
+
 MAX_MAP_PIXELS = Limit(50_000_000, "a map_server image is decoded whole into memory")
 """Pixels of a map_server image, read from its PNG/PGM header before it is decoded: 50
 megapixels is a 7 km square at 1 m/px, or a 350 m square at the usual 5 cm/px. Other

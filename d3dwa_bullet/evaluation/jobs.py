@@ -43,6 +43,7 @@ from d3dwa_bullet.evaluation.results import (
     with_recovery,
     write_meta,
 )
+from d3dwa_bullet.io import file_stem
 from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.methods import LABELS, make_controller
 from d3dwa_bullet.sim.noise import NoiseModel
@@ -89,10 +90,18 @@ class Job:
 
 
 def log_name(key: Key) -> str:
-    """The file name, in a results directory's logs/, of the episode with this key."""
+    """The file name, in a results directory's logs/, of the episode with this key (a key
+    too long for a file name is cut and hashed: :func:`~d3dwa_bullet.io.file_stem`)."""
     world, method, policy_seed, seed, noise = key
     trained = "" if policy_seed is None else f"__p{policy_seed}"
-    return _UNSAFE.sub("_", f"{world}__{method}{trained}__{noise}__s{seed}") + ".npz"
+    return file_stem(_UNSAFE.sub("_", f"{world}__{method}{trained}__{noise}__s{seed}")) + ".npz"
+
+
+def figure_name(world: str, colour_by: str) -> str:
+    """The file name, in a results directory's figures/, of a world's trajectories coloured
+    by ``colour_by`` (time, tau): ``TS1_time.png``; a world name that is not a safe file
+    name (``../../escape``, 300 characters) is made one (:func:`~d3dwa_bullet.io.file_stem`)."""
+    return f"{file_stem(world)}_{colour_by}.png"
 
 
 def make_noise(profile: str, seed: int):
@@ -250,14 +259,14 @@ def world_figures(
         if not runs:
             continue
         fig_dir = out / "figures"
-        paths.append(trajectory_figure(world, runs, fig_dir / f"{world.name}_time.png"))
+        paths.append(trajectory_figure(world, runs, fig_dir / figure_name(world.name, "time")))
         learned = [r for r in runs if r["method"].startswith("d3dwa")]
         if learned:
             paths.append(
                 trajectory_figure(
                     world,
                     learned,
-                    fig_dir / f"{world.name}_tau.png",
+                    fig_dir / figure_name(world.name, "tau"),
                     colour_by="tau",
                     title=f"{world.name}: D3DWA trajectories coloured by the selected horizon",
                 )  # fmt: skip

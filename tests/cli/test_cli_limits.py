@@ -70,8 +70,9 @@ def test_counts_over_their_limit_are_refused_before_any_work(
     def no_episodes(*args, **kwargs):
         raise AssertionError("episodes started: the limit was not checked")
 
-    monkeypatch.setattr("d3dwa_bullet.evaluation.jobs.evaluate", no_episodes)
+    # sweep first: importing it after jobs.evaluate is patched would bind the patch for good
     monkeypatch.setattr("d3dwa_bullet.evaluation.sweep.run_sweep", no_episodes)
+    monkeypatch.setattr("d3dwa_bullet.evaluation.jobs.evaluate", no_episodes)
     out = tmp_path / "out"
     line = refused(capsys, *argv, "--out", out)
     assert re.search(expected, line), line
@@ -136,3 +137,44 @@ def test_a_map_image_past_the_pixel_limit_is_refused_from_its_header(tmp_path, c
 def test_a_file_that_is_not_regular_is_refused(capsys):
     line = refused(capsys, "train", "--config", "/dev/zero", "--out", Path("/nonexistent/run"))
     assert "/dev/zero: not a regular file" in line
+
+
+def world_file(path: Path, name: str, **changes) -> Path:
+    path.write_text(yaml.safe_dump({**ONE_SECOND_WORLD, "name": name, **changes}))
+    return path
+
+
+def test_world_names_that_are_no_file_names_stay_inside_out(tmp_path, capsys):
+    """A world named ../../escape or 300 characters long: figures and logs inside --out,
+    bounded names; the ordinary world beside them keeps its names."""
+    home = tmp_path / "home"
+    home.mkdir()
+    escape = world_file(home / "escape.yaml", "../../escape")
+    long = world_file(home / "long.yaml", "L" * 300)
+    plain = world_file(home / "plain.yaml", "tiny")
+    out = home / "a" / "b"
+    argv = ["eval", "--worlds", f"{escape},{long},{plain}", "--methods", "dwa1",
+            "--workers", "1", "--out", out]  # fmt: skip
+    assert main([str(a) for a in argv]) == 0, capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["home"]  # nothing escaped
+    assert sorted(p.name for p in home.iterdir()) == ["a", "escape.yaml", "long.yaml", "plain.yaml"]
+    figures = sorted(p.name for p in (out / "figures").iterdir())
+    logs = sorted(p.name for p in (out / "logs").iterdir())
+    assert len(figures) == len(logs) == 3
+    assert "tiny_time.png" in figures and "tiny__dwa1__none__s0.npz" in logs
+    assert any(f.startswith(".._.._escape-") for f in figures)
+    assert all(len(n.encode()) <= 200 for n in figures + logs)
+    rows = (out / "results.csv").read_text()
+    assert "../../escape," in rows and "L" * 300 in rows  # the rows keep the names as given
+
+
+def test_a_plot_file_name_too_long_is_refused_before_the_episode(tmp_path, capsys, monkeypatch):
+    def no_episode(*args, **kwargs):
+        raise AssertionError("the episode ran before --plot was checked")
+
+    monkeypatch.setattr("d3dwa_bullet.episode.run_episode", no_episode)
+    plot = tmp_path / ("p" * 300 + ".png")
+    line = refused(capsys, "run", "--world", "TS1", "--method", "dwa1", "--plot", plot)
+    assert "--plot " in line and "the file name is 304 bytes, over the 241" in line
+    assert str(plot) not in line  # the message shows the path shortened
+
