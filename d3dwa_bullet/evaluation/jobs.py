@@ -15,7 +15,7 @@ import json
 import os
 import re
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -178,13 +178,14 @@ def _evaluate(
     settings = dict(settings or {"kind": "eval"})
     if recovery != "none":
         settings["recovery"] = recovery
-    check_results_dir(out, fields, recovery)
-    drop_partial_row(out / "results.csv")
-    done = {row_key(r) for r in read_results(out)}
+    check_distinct(jobs)
     unique: dict[Key, Job] = {}
     for j in jobs:  # a world or seed named twice is one episode, not two rows
         unique.setdefault(j.key, j)
     jobs = list(unique.values())
+    check_results_dir(out, fields, recovery)
+    drop_partial_row(out / "results.csv")
+    done = {row_key(r) for r in read_results(out)}
     keys = [j.key for j in jobs]
     check_same_run(out, keys, config, settings)
     todo = [j for j in jobs if j.key not in done]
@@ -216,6 +217,32 @@ def _evaluate(
         rank = {k: i for i, k in enumerate(keys)}
         rows.sort(key=lambda r: rank[row_key(r)])
     return rows
+
+
+def check_distinct(jobs: Sequence[Job]) -> None:
+    """ConfigError when two different worlds of one run share a name, or two episodes
+    would share a log file (names that differ only in characters a file name cannot hold).
+
+    A results row, its log and its figures name a world by its ``name:`` only, so two world
+    files with one name (or a custom world named ``TS1`` beside the shipped one) would mix
+    their rows under one key: the run is refused, naming both files, rather than keyed apart.
+    The same world listed twice, or two files with the same content, is one world."""
+    worlds: dict[str, World] = {}
+    logs: dict[str, Key] = {}
+    for job in jobs:
+        first = worlds.setdefault(job.world.name, job.world)
+        if first is not job.world and replace(first, source="") != replace(job.world, source=""):
+            raise ConfigError(
+                f"worlds {first.source} and {job.world.source} are both named "
+                f"{job.world.name!r}; results are keyed by world name, so their rows would "
+                "mix: give one of them another name: field"
+            )
+        other = logs.setdefault(job.log_name, job.key)
+        if other != job.key:
+            raise ConfigError(
+                f"episodes {other} and {job.key} would share the log file "
+                f"logs/{job.log_name}; rename a world so the names differ in a letter or digit"
+            )
 
 
 def world_figures(

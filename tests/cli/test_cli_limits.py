@@ -178,3 +178,30 @@ def test_a_plot_file_name_too_long_is_refused_before_the_episode(tmp_path, capsy
     assert "--plot " in line and "the file name is 304 bytes, over the 241" in line
     assert str(plot) not in line  # the message shows the path shortened
 
+
+def test_two_world_files_with_one_name_are_refused_naming_both(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("d3dwa_bullet.evaluation.jobs.run_job", None)  # no episode may run
+    a = world_file(tmp_path / "a.yaml", "same")
+    b = world_file(tmp_path / "b.yaml", "same", goal=[1.2, 0.0])
+    for argv in (
+        ["eval", "--worlds", f"{a},{b}", "--methods", "dwa1"],
+        ["sweep", "--worlds", f"{a},{b}", "--layouts", "0", "--axes", "", "--profiles", "none",
+         "--methods", "dwa1"],
+    ):  # fmt: skip
+        out = tmp_path / argv[0]
+        line = refused(capsys, *argv, "--workers", "1", "--out", out)
+        assert f"worlds {a} and {b} are both named 'same'" in line
+        assert not (out / "results.csv").exists()
+    shipped_twin = world_file(tmp_path / "ts1.yaml", "TS1")
+    line = refused(capsys, "eval", "--worlds", f"TS1,{shipped_twin}", "--methods", "dwa1",
+                   "--workers", "1", "--out", tmp_path / "twin")  # fmt: skip
+    assert f"and {shipped_twin} are both named 'TS1'" in line
+
+
+def test_worlds_whose_log_names_would_clash_are_refused(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("d3dwa_bullet.evaluation.jobs.run_job", None)
+    a = world_file(tmp_path / "a.yaml", "my world")
+    b = world_file(tmp_path / "b.yaml", "my_world")
+    line = refused(capsys, "eval", "--worlds", f"{a},{b}", "--methods", "dwa1", "--workers", "1",
+                   "--out", tmp_path / "out")  # fmt: skip
+    assert "would share the log file logs/my_world__dwa1__none__s0.npz" in line
