@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.limits import check_processes
+from d3dwa_bullet.limits import MAX_TOTAL_STEPS, check_processes
 from d3dwa_bullet.resources import configs_dir
 
 
@@ -68,6 +68,8 @@ def cmd_train(args: argparse.Namespace) -> int:
 
     if args.total_steps is not None and args.total_steps < 1:
         raise ConfigError(f"--total-steps must be >= 1, got {args.total_steps}")
+    if args.total_steps is not None:
+        MAX_TOTAL_STEPS.check("--total-steps", args.total_steps, "steps")
     if args.n_envs is not None and args.n_envs < 0:
         raise ConfigError(f"--n-envs must be >= 1 (or 0: one per core), got {args.n_envs}")
     if args.n_envs:

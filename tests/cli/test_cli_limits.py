@@ -79,6 +79,26 @@ def test_counts_over_their_limit_are_refused_before_any_work(
     assert not out.exists()  # refused before the results directory was made
 
 
+@pytest.mark.parametrize(
+    "argv, expected",
+    [
+        (["run", "--world", "TS1", "--method", "dwa1", "--physics-hz", "1000000"],
+         "--physics-hz: 1000000 Hz is over the limit of 10000 Hz (each control step runs"),
+        (["eval", "--worlds", "TS1", "--methods", "dwa1", "--control-hz", "100000",
+          "--physics-hz", "100000"], "--physics-hz: 100000 Hz is over the limit"),
+        (["sweep", "--methods", "dwa1", "--control-hz", "5000", "--physics-hz", "10000"],
+         "--control-hz: 5000 Hz is over the limit of 1000 Hz (the planner runs once"),
+        (["train", "--method", "dqdwa", "--total-steps", "1000000000000"],
+         "--total-steps: 1000000000000 steps is over the limit of 100000000 steps"),
+    ],
+)  # fmt: skip
+def test_rates_and_training_budgets_over_their_limit_are_refused(tmp_path, capsys, argv, expected):
+    out = tmp_path / "out"
+    line = refused(capsys, *argv, *([] if argv[0] == "run" else ["--out", out]))
+    assert expected in line
+    assert not out.exists()
+
+
 def test_a_time_limit_past_an_hour_is_refused(capsys, tmp_path):
     line = refused(capsys, "run", "--world", "TS1", "--method", "dwa1", "--time-limit", "1e12")
     assert "--time-limit: 1e+12 s is over the limit of 3600 s" in line
@@ -102,6 +122,8 @@ def test_n_envs_past_the_processes_of_this_machine_is_refused(tmp_path, capsys):
         ({"method": "dqdwa", "noise": ["none", "paper"], "noise_probs": [1e308, 1e308]},
          "noise_probs: weights must have a finite sum > 0"),
         ({"method": "d3dwa", "agent": {"buffer_size": 10**12}}, "buffer_size must be <= "),
+        ({"method": "dqdwa", "total_steps": 10**12},
+         "total_steps: 1000000000000 steps is over the limit of 100000000 steps"),
     ],
 )  # fmt: skip
 def test_a_training_config_over_a_limit_is_refused(tmp_path, capsys, config, expected):
