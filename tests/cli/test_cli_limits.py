@@ -214,6 +214,7 @@ def test_two_world_files_with_one_name_are_refused_naming_both(tmp_path, capsys,
         line = refused(capsys, *argv, "--workers", "1", "--out", out)
         assert f"worlds {a} and {b} are both named 'same'" in line
         assert not (out / "results.csv").exists()
+    assert not (tmp_path / "eval").exists()  # eval refuses before it makes --out
     shipped_twin = world_file(tmp_path / "ts1.yaml", "TS1")
     line = refused(capsys, "eval", "--worlds", f"TS1,{shipped_twin}", "--methods", "dwa1",
                    "--workers", "1", "--out", tmp_path / "twin")  # fmt: skip
