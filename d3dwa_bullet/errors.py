@@ -54,3 +54,7 @@ class TrainingError(D3DWAError, RuntimeError):
 
 class BackendError(D3DWAError, RuntimeError):
     """A backend cannot run: Ray missing, a Ray address that does not answer, a bad address."""
+
+
+class BusyError(D3DWAError, RuntimeError):
+    """An output directory is being written by another running command (it holds the lock)."""

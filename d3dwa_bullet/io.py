@@ -12,11 +12,16 @@ binary garbage or one that cannot be read is the caller's error class with one l
 names the file, not a ``UnicodeDecodeError``. It reads only regular files (not ``/dev/zero``,
 a FIFO or a directory) and refuses a file over its size limit before reading it
 (:mod:`d3dwa_bullet.limits`); YAML and JSON go through :mod:`d3dwa_bullet.loading`.
+
+:func:`file_stem` makes a name read from a file or typed by the user (a world's ``name:``)
+safe to use in a file name: it stays in its directory and within the file system's length.
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
+import re
 import secrets
 import stat
 from collections.abc import Callable
@@ -24,13 +29,47 @@ from pathlib import Path
 from typing import Any, BinaryIO, Protocol
 
 from d3dwa_bullet.errors import D3DWAError
-from d3dwa_bullet.limits import MAX_TEXT_BYTES, Limit
+from d3dwa_bullet.limits import MAX_STEM_BYTES, MAX_TEXT_BYTES, Limit
 
 
 class SavesFigure(Protocol):
     """Anything with matplotlib's ``Figure.savefig(file, **kw)`` (no matplotlib import here)."""
 
     def savefig(self, fname: Any, **kwargs: Any) -> Any: ...
+
+
+TEMP_NAME_EXTRA = len(".") + len(f".{secrets.token_hex(4)}.tmp")
+"""Bytes the temporary name of an atomic write adds to the target's name (a name that fits
+the file system only without them cannot be written atomically)."""
+_PATH_UNSAFE = re.compile(r"[/\\\x00-\x1f\x7f\ud800-\udfff]")
+"""Characters that never go into a file name: path separators, control characters and
+lone surrogates (not encodable)."""
+
+
+def file_stem(name: str) -> str:
+    """``name`` as (the start of) a file name in one directory: ``name`` itself when it has
+    no path separator or control character, is not ``.`` or ``..`` and fits
+    :data:`~d3dwa_bullet.limits.MAX_STEM_BYTES`; otherwise those characters become ``_``,
+    the result is cut to fit, and ``-`` and 10 hex digits of the SHA-256 of ``name`` follow,
+    so two names never share a stem. ``TS1`` -> ``TS1``; ``../../escape`` ->
+    ``.._.._escape-<hash>``."""
+    cleaned = _PATH_UNSAFE.sub("_", name)
+    limit = int(MAX_STEM_BYTES.value)
+    if cleaned == name and name not in ("", ".", "..") and len(name.encode()) <= limit:
+        return name
+    digest = hashlib.sha256(name.encode("utf-8", "surrogatepass")).hexdigest()[:10]
+    head = cleaned.encode()[: limit - len(digest) - 1].decode("utf-8", "ignore")
+    return f"{head}-{digest}"
+
+
+def name_room(directory: str | os.PathLike[str]) -> int:
+    """Bytes a file name in ``directory`` may have and still be written atomically there
+    (the file system's NAME_MAX, 255 where it cannot be asked, less TEMP_NAME_EXTRA)."""
+    try:
+        name_max = os.pathconf(directory, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        name_max = 255
+    return (name_max if name_max > 0 else 255) - TEMP_NAME_EXTRA
 
 
 def _atomic_write(path: str | os.PathLike[str], write: Callable[[BinaryIO], object]) -> Path:

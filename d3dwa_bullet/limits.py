@@ -89,6 +89,27 @@ MAX_TIME_LIMIT_S = Limit(3600.0, "an episode is a minute of simulated time; an h
 """Episode time limit, seconds of simulated time (``--time-limit`` and a world's
 ``time_limit``); the paper's episodes last 60 s."""
 
+MAX_STEM_BYTES = Limit(
+    160, "a file name has at most 255 bytes, some taken by its suffix and a temporary name"
+)
+"""Bytes (UTF-8) of the part of a file name made from a name the user gave: a world's
+``name:`` in ``figures/<world>_time.png``, an episode's key in ``logs/``. A longer name is
+cut and ends in a hash of the whole (:func:`d3dwa_bullet.io.file_stem`), so it stays unique;
+the atomic writer's temporary name adds 14 bytes to the final one."""
+
+MAX_PHYSICS_HZ = Limit(10_000, "each control step runs physics_hz / control_hz PyBullet steps")
+"""``--physics-hz`` of run, eval and sweep: the protocol simulates at 240 Hz; 10 kHz makes
+every simulated second 10,000 PyBullet steps."""
+
+MAX_CONTROL_HZ = Limit(1_000, "the planner runs once per control step; the protocol uses 10 Hz")
+"""``--control-hz`` of run, eval and sweep: a 60 s episode at 1 kHz is already 60,000
+planner calls."""
+
+MAX_TOTAL_STEPS = Limit(100_000_000, "400 times the protocol's 250,000 steps: days of training")
+"""Environment steps of one training (``--total-steps`` and a config's ``total_steps``),
+checked when a run starts: a typo (``--total-steps 1e12``) would otherwise train until
+someone stops it."""
+
 MAX_MAP_PIXELS = Limit(50_000_000, "a map_server image is decoded whole into memory")
 """Pixels of a map_server image, read from its PNG/PGM header before it is decoded: 50
 megapixels is a 7 km square at 1 m/px, or a 350 m square at the usual 5 cm/px. Other

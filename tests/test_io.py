@@ -8,7 +8,8 @@ import stat
 import matplotlib.pyplot as plt
 import pytest
 
-from d3dwa_bullet.io import atomic_savefig, atomic_write_bytes, atomic_write_text
+from d3dwa_bullet.io import atomic_savefig, atomic_write_bytes, atomic_write_text, file_stem
+from d3dwa_bullet.limits import MAX_STEM_BYTES
 
 
 class Boom(RuntimeError):
@@ -66,3 +67,27 @@ def test_savefig_takes_the_format_from_the_suffix(tmp_path):
     assert (tmp_path / "f.png").read_bytes().startswith(b"\x89PNG")
     assert b"<svg" in (tmp_path / "f.svg").read_bytes()[:500]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f.png", "f.svg"]
+
+
+@pytest.mark.parametrize("name", ["TS1", "R1-style-s2147483650", "tiny", "my world", "wörld"])
+def test_an_ordinary_name_is_its_own_file_stem(name):
+    assert file_stem(name) == name
+
+
+@pytest.mark.parametrize(
+    "name", ["../../escape", "/etc/passwd", "a\\b", "line\nbreak", ".", "..", "", "x" * 300]
+)
+def test_a_name_that_is_no_file_name_becomes_one_in_its_directory(name, tmp_path):
+    stem = file_stem(name)
+    assert "/" not in stem and "\\" not in stem and "\n" not in stem and stem not in (".", "..")
+    assert len(stem.encode()) <= MAX_STEM_BYTES.value
+    assert (tmp_path / f"{stem}_time.png").parent == tmp_path
+    atomic_write_text(tmp_path / f"{stem}_time.png", "x")  # the file system takes it
+
+
+def test_cut_names_stay_distinct_and_whole_characters():
+    a, b = "é" * 200 + "a", "é" * 200 + "b"
+    assert file_stem(a) != file_stem(b)
+    assert len(file_stem(a).encode()) <= MAX_STEM_BYTES.value
+    assert file_stem(a).startswith("é" * 10)  # cut between characters, not inside one
+    assert file_stem("a/b") != file_stem("a_b") == "a_b"

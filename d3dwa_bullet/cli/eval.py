@@ -5,7 +5,10 @@ evaluation is resumed or extended, never shrunk or mixed: the command must list 
 (world, method, seed, noise) already in its results.csv (it may add more), with the same
 episode settings (rates, world files, policy); otherwise it is refused with a message that
 names the mismatch, so table.md and meta.json always describe exactly the rows of results.csv
-(see :func:`d3dwa_bullet.evaluation.results.check_same_run`).
+(see :func:`d3dwa_bullet.evaluation.results.check_same_run`). Two different worlds with one
+name are refused, naming both files (:func:`d3dwa_bullet.evaluation.jobs.check_distinct`), and
+``--out`` is locked while the command writes it: a second eval into it is refused, naming the
+first one's pid (:mod:`d3dwa_bullet.dir_lock`).
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from d3dwa_bullet.cli.options import (
     workers_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
+from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.limits import MAX_EPISODES, MAX_SEED_VALUE, MAX_SEEDS
@@ -67,7 +71,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def cmd_eval(args: argparse.Namespace) -> int:
     # start-up cost: the evaluation imports the simulator (pybullet) and the planner (numba)
     from d3dwa_bullet.evaluation.backends import check_address
-    from d3dwa_bullet.evaluation.jobs import Job, evaluate, make_noise, world_figures
+    from d3dwa_bullet.evaluation.jobs import (
+        Job,
+        check_distinct,
+        evaluate,
+        make_noise,
+        world_figures,
+    )
     from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
     from d3dwa_bullet.evaluation.report import eval_markdown, figure_seeds, seeds_markdown
     from d3dwa_bullet.methods import check_method, make_controller
@@ -93,6 +103,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         Job(w, r.method, s, args.noise, r.policy, policy_seed=r.policy_seed)
         for w in worlds for r in runs for s in seeds
     ]  # fmt: skip
+    check_distinct(jobs)  # before --out is made (evaluate checks again: it has other callers)
     out = check_out_dir(args.out, subdirs=("logs", "figures"))
     names = [w.name for w in worlds]
     settings = {
@@ -106,14 +117,16 @@ def cmd_eval(args: argparse.Namespace) -> int:
     }  # fmt: skip
     if policy:
         settings["policy"] = str(Path(policy).resolve())
-    rows = evaluate(
-        jobs, out, workers=workers, config=config, progress=not args.json,
-        ray_address=args.ray, settings=settings,
-    )  # fmt: skip
-    table = eval_markdown(rows, methods, names, seeds, args.noise, recovery=config.recovery_name)
-    atomic_write_text(out / "table.md", table)
-    atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names))
-    figures = world_figures(out, worlds, methods, seeds[0], args.noise, figure_seeds(rows))
+    with locked_dir(out):  # one writer: the episodes, then the tables and figures
+        rows = evaluate(
+            jobs, out, workers=workers, config=config, progress=not args.json,
+            ray_address=args.ray, settings=settings,
+        )  # fmt: skip
+        recovery = config.recovery_name
+        table = eval_markdown(rows, methods, names, seeds, args.noise, recovery=recovery)
+        atomic_write_text(out / "table.md", table)
+        atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names))
+        figures = world_figures(out, worlds, methods, seeds[0], args.noise, figure_seeds(rows))
     if args.json:
         print(json_text(rows))
     else:

@@ -22,7 +22,7 @@ import warnings
 from collections.abc import Callable, Sequence
 
 from d3dwa_bullet.errors import ConfigError, WorldFormatError
-from d3dwa_bullet.limits import MAX_TIME_LIMIT_S, check_processes
+from d3dwa_bullet.limits import MAX_CONTROL_HZ, MAX_PHYSICS_HZ, MAX_TIME_LIMIT_S, check_processes
 from d3dwa_bullet.params import RECOVERY_KINDS, PlannerParams, SimParams, recovery_params
 from d3dwa_bullet.world.model import World, goal_in_obstacle, start_in_collision
 from d3dwa_bullet.world.registry import load_world, world_file_kind
@@ -225,11 +225,13 @@ def recovery_arg(args: argparse.Namespace, control_period: float):
 
 
 def episode_config(args: argparse.Namespace):
-    """EpisodeConfig from --physics-hz / --control-hz (checked: physics must divide evenly)
-    and, on commands that take it, --recovery (see :func:`recovery_arg`)."""
+    """EpisodeConfig from --physics-hz / --control-hz (checked: physics must divide evenly,
+    neither over its limit in :mod:`d3dwa_bullet.limits`) and, on commands that take it, --recovery (see :func:`recovery_arg`)."""
     # start-up cost: d3dwa_bullet.episode imports pybullet and scipy (~0.5 s)
     from d3dwa_bullet.episode import EpisodeConfig
 
+    MAX_PHYSICS_HZ.check("--physics-hz", args.physics_hz, "Hz")
+    MAX_CONTROL_HZ.check("--control-hz", args.control_hz, "Hz")
     sim = SimParams(physics_hz=args.physics_hz, control_hz=args.control_hz)
     return EpisodeConfig(
         sim=sim,

@@ -4,7 +4,8 @@ An episode, an evaluation or a recording may take minutes; a destination it cann
 must be refused before the first step, not after the last. :func:`check_out_dir` and
 :func:`check_out_file` raise :class:`ConfigError` naming the option and the path: a
 directory that is a file, a path under a file, a location without write permission (or one
-that cannot be created). They create the missing directories the command would create anyway.
+that cannot be created), a file name too long for the file system. They create the missing
+directories the command would create anyway.
 
 ``--json`` output is strict JSON (RFC 8259 has no NaN or Infinity): :func:`json_text` writes
 non-finite floats, such as the minimum clearance of a world without obstacles, as ``null``.
@@ -20,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.io import name_room
 
 
 def _existing_ancestor(path: Path) -> Path:
@@ -65,7 +67,19 @@ def check_out_file(
     """An output file of a command: not a directory, its directory created and writable,
     and (with suffixes, lower case without the dot) a suffix the writer understands."""
     target = Path(path)
-    if target.is_dir():
+    directory = target.parent if str(target.parent) else Path(".")
+    room, size = name_room(_existing_ancestor(directory)), len(os.fsencode(target.name))
+    if size > room:
+        raise ConfigError(
+            f"{option} {_shown(target)}: the file name is {size} bytes, over the {room} this "
+            "file system allows (a file is written under a temporary name first); give a "
+            "shorter name"
+        )
+    try:
+        is_dir = target.is_dir()
+    except OSError as err:  # a path longer than the system's PATH_MAX
+        raise ConfigError(f"{option} {_shown(target)}: {err.strerror}") from err
+    if is_dir:
         raise ConfigError(f"{option} {target}: is a directory; give a file name")
     if suffixes is not None:
         allowed = sorted(set(suffixes))
@@ -75,8 +89,14 @@ def check_out_file(
                 f"{option} {target}: unknown file type {target.suffix!r}; use one of "
                 + ", ".join(f".{s}" for s in allowed)
             )
-    _make_dir(target.parent if str(target.parent) else Path("."), option, target)
+    _make_dir(directory, option, target)
     return target
+
+
+def _shown(path: Path, most: int = 80) -> str:
+    """path for a message, its middle cut out when it is longer than ``most`` characters."""
+    text = str(path)
+    return text if len(text) <= most else f"{text[: most // 2]}...{text[-most // 2 :]}"
 
 
 def strict(value: Any) -> Any:

@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.limits import check_processes
+from d3dwa_bullet.limits import MAX_TOTAL_STEPS, check_processes
 from d3dwa_bullet.resources import configs_dir
 
 
@@ -68,6 +68,8 @@ def cmd_train(args: argparse.Namespace) -> int:
 
     if args.total_steps is not None and args.total_steps < 1:
         raise ConfigError(f"--total-steps must be >= 1, got {args.total_steps}")
+    if args.total_steps is not None:
+        MAX_TOTAL_STEPS.check("--total-steps", args.total_steps, "steps")
     if args.n_envs is not None and args.n_envs < 0:
         raise ConfigError(f"--n-envs must be >= 1 (or 0: one per core), got {args.n_envs}")
     if args.n_envs:
@@ -163,7 +165,7 @@ def _train_seeds(args: argparse.Namespace) -> int:
         if args.json:
             return
         what = {"done": "done", "skipped": "already complete", "interrupted": "interrupted",
-                "failed": f"FAILED: {o.error}"}[o.status]  # fmt: skip
+                "failed": f"FAILED: {o.error}", "stopped": "not started (interrupted)"}[o.status]  # fmt: skip
         print(
             f"seed {o.seed}: {what} ({o.out})" + (f", exported {o.exported}" if o.exported else "")
         )
@@ -189,6 +191,11 @@ def _train_seeds(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
-    if any(o.status == "interrupted" for o in outcomes):
+    if any(o.status in ("interrupted", "stopped") for o in outcomes):
+        print(
+            f"d3dwa: interrupted; finished seeds are kept: continue with d3dwa train --config "
+            f"{args.config} --seeds {args.seeds} --out {args.out} --resume",
+            file=sys.stderr,
+        )
         return 130
     return 0

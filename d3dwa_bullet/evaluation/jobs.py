@@ -15,13 +15,14 @@ import json
 import os
 import re
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from tqdm import tqdm
 
+from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig, EpisodeResult, run_episode
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.backends import open_backend
@@ -42,6 +43,7 @@ from d3dwa_bullet.evaluation.results import (
     with_recovery,
     write_meta,
 )
+from d3dwa_bullet.io import file_stem
 from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.methods import LABELS, make_controller
 from d3dwa_bullet.sim.noise import NoiseModel
@@ -88,10 +90,18 @@ class Job:
 
 
 def log_name(key: Key) -> str:
-    """The file name, in a results directory's logs/, of the episode with this key."""
+    """The file name, in a results directory's logs/, of the episode with this key (a key
+    too long for a file name is cut and hashed: :func:`~d3dwa_bullet.io.file_stem`)."""
     world, method, policy_seed, seed, noise = key
     trained = "" if policy_seed is None else f"__p{policy_seed}"
-    return _UNSAFE.sub("_", f"{world}__{method}{trained}__{noise}__s{seed}") + ".npz"
+    return file_stem(_UNSAFE.sub("_", f"{world}__{method}{trained}__{noise}__s{seed}")) + ".npz"
+
+
+def figure_name(world: str, colour_by: str) -> str:
+    """The file name, in a results directory's figures/, of a world's trajectories coloured
+    by ``colour_by`` (time, tau): ``TS1_time.png``; a world name that is not a safe file
+    name (``../../escape``, 300 characters) is made one (:func:`~d3dwa_bullet.io.file_stem`)."""
+    return f"{file_stem(world)}_{colour_by}.png"
 
 
 def make_noise(profile: str, seed: int):
@@ -145,21 +155,37 @@ def evaluate(
     in meta.json for ``d3dwa report``. Rows are appended as episodes finish; once every job
     is in, results.csv is rewritten in the order of jobs, whatever the backend. A directory
     whose rows these jobs would not resume or extend is refused before any episode runs
-    (ResultsError from :func:`~d3dwa_bullet.evaluation.results.check_same_run`).
+    (ResultsError from :func:`~d3dwa_bullet.evaluation.results.check_same_run`), and so is
+    one another process is writing (BusyError): the directory is locked
+    (:mod:`d3dwa_bullet.dir_lock`) from before its first write to the return.
     """
-    out = Path(out)
+    with locked_dir(out):
+        return _evaluate(jobs, Path(out), workers, config, progress, ray_address, fields, settings)
+
+
+def _evaluate(
+    jobs: Sequence[Job],
+    out: Path,
+    workers: int,
+    config: EpisodeConfig,
+    progress: bool,
+    ray_address: str | None,
+    fields: Sequence[str],
+    settings: dict[str, Any] | None,
+) -> list[dict[str, Any]]:
     recovery = config.recovery_name
     fields = with_recovery(fields, recovery)
     settings = dict(settings or {"kind": "eval"})
     if recovery != "none":
         settings["recovery"] = recovery
-    check_results_dir(out, fields, recovery)
-    drop_partial_row(out / "results.csv")
-    done = {row_key(r) for r in read_results(out)}
+    check_distinct(jobs)
     unique: dict[Key, Job] = {}
     for j in jobs:  # a world or seed named twice is one episode, not two rows
         unique.setdefault(j.key, j)
     jobs = list(unique.values())
+    check_results_dir(out, fields, recovery)
+    drop_partial_row(out / "results.csv")
+    done = {row_key(r) for r in read_results(out)}
     keys = [j.key for j in jobs]
     check_same_run(out, keys, config, settings)
     todo = [j for j in jobs if j.key not in done]
@@ -191,6 +217,32 @@ def evaluate(
         rank = {k: i for i, k in enumerate(keys)}
         rows.sort(key=lambda r: rank[row_key(r)])
     return rows
+
+
+def check_distinct(jobs: Sequence[Job]) -> None:
+    """ConfigError when two different worlds of one run share a name, or two episodes
+    would share a log file (names that differ only in characters a file name cannot hold).
+
+    A results row, its log and its figures name a world by its ``name:`` only, so two world
+    files with one name (or a custom world named ``TS1`` beside the shipped one) would mix
+    their rows under one key: the run is refused, naming both files, rather than keyed apart.
+    The same world listed twice, or two files with the same content, is one world."""
+    worlds: dict[str, World] = {}
+    logs: dict[str, Key] = {}
+    for job in jobs:
+        first = worlds.setdefault(job.world.name, job.world)
+        if first is not job.world and replace(first, source="") != replace(job.world, source=""):
+            raise ConfigError(
+                f"worlds {first.source} and {job.world.source} are both named "
+                f"{job.world.name!r}; results are keyed by world name, so their rows would "
+                "mix: give one of them another name: field"
+            )
+        other = logs.setdefault(job.log_name, job.key)
+        if other != job.key:
+            raise ConfigError(
+                f"episodes {other} and {job.key} would share the log file "
+                f"logs/{job.log_name}; rename a world so the names differ in a letter or digit"
+            )
 
 
 def world_figures(
@@ -234,14 +286,14 @@ def world_figures(
         if not runs:
             continue
         fig_dir = out / "figures"
-        paths.append(trajectory_figure(world, runs, fig_dir / f"{world.name}_time.png"))
+        paths.append(trajectory_figure(world, runs, fig_dir / figure_name(world.name, "time")))
         learned = [r for r in runs if r["method"].startswith("d3dwa")]
         if learned:
             paths.append(
                 trajectory_figure(
                     world,
                     learned,
-                    fig_dir / f"{world.name}_tau.png",
+                    fig_dir / figure_name(world.name, "tau"),
                     colour_by="tau",
                     title=f"{world.name}: D3DWA trajectories coloured by the selected horizon",
                 )  # fmt: skip

@@ -22,7 +22,7 @@ from typing import Any
 
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
-from d3dwa_bullet.evaluation.jobs import world_figures
+from d3dwa_bullet.evaluation.jobs import figure_name, world_figures
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.results import (
     check_results_dir,
@@ -207,7 +207,7 @@ def _eval_body(out: Path, meta: dict[str, Any], rows: list[dict], partial: bool)
     sources = meta["settings"].get("world_sources", worlds)
     loaded = []
     for name, src in zip(worlds, sources, strict=False):
-        if not (out / "figures" / f"{name}_time.png").exists():
+        if not (out / "figures" / figure_name(name, "time")).exists():
             try:
                 loaded.append(load_world(src))
             except Exception:  # a world file that moved: its figure is just left out
@@ -216,7 +216,7 @@ def _eval_body(out: Path, meta: dict[str, Any], rows: list[dict], partial: bool)
         world_figures(out, loaded, methods, seeds[0], noise, figure_seeds(rows))
     figs = []
     for name in worlds:
-        paths = [out / "figures" / f"{name}_{k}.png" for k in ("time", "tau")]
+        paths = [out / "figures" / figure_name(name, k) for k in ("time", "tau")]
         paths = [p for p in paths if p.exists()]
         if paths:
             figs.append(f"\n### {name}\n\n")

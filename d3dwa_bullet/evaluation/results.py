@@ -1,6 +1,7 @@
 """A results directory on disk: reading and writing it, resuming it, judging it complete.
 
-A results directory holds::
+A results directory holds (and, while a command writes it, ``.d3dwa.lock``: see
+:mod:`d3dwa_bullet.dir_lock`)::
 
     meta.json          format version, package version, episode config, the command's
                        settings and the key of every job of the last run (what "complete" means)

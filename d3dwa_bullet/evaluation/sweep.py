@@ -41,6 +41,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, UnknownNameError
 from d3dwa_bullet.evaluation.jobs import Job, evaluate, noise_config_json
@@ -350,14 +351,15 @@ def run_sweep(
     meta["policy_digests"] = policy_digests(runs)
     if policy:
         meta["policy"] = str(Path(policy).resolve())
-    evaluate(jobs, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta)
-    keys = {j.key for j in jobs}
-    rows = [r for r in read_sweep(out) if row_key(r) in keys]
-    done, expected = completion(out, rows)
-    complete = done == expected
-    if complete and figures:
-        sweep_figures(rows, settings, out / "figures")
-    if complete:
-        page = "# Noise sweep\n\n" + recovery_note(config.recovery_name)
-        atomic_write_text(out / "sweep.md", page + sweep_markdown(rows, settings))
+    with locked_dir(out):  # one writer: the episodes, then the page and figures
+        evaluate(jobs, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta)
+        keys = {j.key for j in jobs}
+        rows = [r for r in read_sweep(out) if row_key(r) in keys]
+        done, expected = completion(out, rows)
+        complete = done == expected
+        if complete and figures:
+            sweep_figures(rows, settings, out / "figures")
+        if complete:
+            page = "# Noise sweep\n\n" + recovery_note(config.recovery_name)
+            atomic_write_text(out / "sweep.md", page + sweep_markdown(rows, settings))
     return rows, complete

@@ -70,12 +70,33 @@ def test_counts_over_their_limit_are_refused_before_any_work(
     def no_episodes(*args, **kwargs):
         raise AssertionError("episodes started: the limit was not checked")
 
-    monkeypatch.setattr("d3dwa_bullet.evaluation.jobs.evaluate", no_episodes)
+    # sweep first: importing it after jobs.evaluate is patched would bind the patch for good
     monkeypatch.setattr("d3dwa_bullet.evaluation.sweep.run_sweep", no_episodes)
+    monkeypatch.setattr("d3dwa_bullet.evaluation.jobs.evaluate", no_episodes)
     out = tmp_path / "out"
     line = refused(capsys, *argv, "--out", out)
     assert re.search(expected, line), line
     assert not out.exists()  # refused before the results directory was made
+
+
+@pytest.mark.parametrize(
+    "argv, expected",
+    [
+        (["run", "--world", "TS1", "--method", "dwa1", "--physics-hz", "1000000"],
+         "--physics-hz: 1000000 Hz is over the limit of 10000 Hz (each control step runs"),
+        (["eval", "--worlds", "TS1", "--methods", "dwa1", "--control-hz", "100000",
+          "--physics-hz", "100000"], "--physics-hz: 100000 Hz is over the limit"),
+        (["sweep", "--methods", "dwa1", "--control-hz", "5000", "--physics-hz", "10000"],
+         "--control-hz: 5000 Hz is over the limit of 1000 Hz (the planner runs once"),
+        (["train", "--method", "dqdwa", "--total-steps", "1000000000000"],
+         "--total-steps: 1000000000000 steps is over the limit of 100000000 steps"),
+    ],
+)  # fmt: skip
+def test_rates_and_training_budgets_over_their_limit_are_refused(tmp_path, capsys, argv, expected):
+    out = tmp_path / "out"
+    line = refused(capsys, *argv, *([] if argv[0] == "run" else ["--out", out]))
+    assert expected in line
+    assert not out.exists()
 
 
 def test_a_time_limit_past_an_hour_is_refused(capsys, tmp_path):
@@ -101,6 +122,8 @@ def test_n_envs_past_the_processes_of_this_machine_is_refused(tmp_path, capsys):
         ({"method": "dqdwa", "noise": ["none", "paper"], "noise_probs": [1e308, 1e308]},
          "noise_probs: weights must have a finite sum > 0"),
         ({"method": "d3dwa", "agent": {"buffer_size": 10**12}}, "buffer_size must be <= "),
+        ({"method": "dqdwa", "total_steps": 10**12},
+         "total_steps: 1000000000000 steps is over the limit of 100000000 steps"),
     ],
 )  # fmt: skip
 def test_a_training_config_over_a_limit_is_refused(tmp_path, capsys, config, expected):
@@ -136,3 +159,72 @@ def test_a_map_image_past_the_pixel_limit_is_refused_from_its_header(tmp_path, c
 def test_a_file_that_is_not_regular_is_refused(capsys):
     line = refused(capsys, "train", "--config", "/dev/zero", "--out", Path("/nonexistent/run"))
     assert "/dev/zero: not a regular file" in line
+
+
+def world_file(path: Path, name: str, **changes) -> Path:
+    path.write_text(yaml.safe_dump({**ONE_SECOND_WORLD, "name": name, **changes}))
+    return path
+
+
+def test_world_names_that_are_no_file_names_stay_inside_out(tmp_path, capsys):
+    """A world named ../../escape or 300 characters long: figures and logs inside --out,
+    bounded names; the ordinary world beside them keeps its names."""
+    home = tmp_path / "home"
+    home.mkdir()
+    escape = world_file(home / "escape.yaml", "../../escape")
+    long = world_file(home / "long.yaml", "L" * 300)
+    plain = world_file(home / "plain.yaml", "tiny")
+    out = home / "a" / "b"
+    argv = ["eval", "--worlds", f"{escape},{long},{plain}", "--methods", "dwa1",
+            "--workers", "1", "--out", out]  # fmt: skip
+    assert main([str(a) for a in argv]) == 0, capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["home"]  # nothing escaped
+    assert sorted(p.name for p in home.iterdir()) == ["a", "escape.yaml", "long.yaml", "plain.yaml"]
+    figures = sorted(p.name for p in (out / "figures").iterdir())
+    logs = sorted(p.name for p in (out / "logs").iterdir())
+    assert len(figures) == len(logs) == 3
+    assert "tiny_time.png" in figures and "tiny__dwa1__none__s0.npz" in logs
+    assert any(f.startswith(".._.._escape-") for f in figures)
+    assert all(len(n.encode()) <= 200 for n in figures + logs)
+    rows = (out / "results.csv").read_text()
+    assert "../../escape," in rows and "L" * 300 in rows  # the rows keep the names as given
+
+
+def test_a_plot_file_name_too_long_is_refused_before_the_episode(tmp_path, capsys, monkeypatch):
+    def no_episode(*args, **kwargs):
+        raise AssertionError("the episode ran before --plot was checked")
+
+    monkeypatch.setattr("d3dwa_bullet.episode.run_episode", no_episode)
+    plot = tmp_path / ("p" * 300 + ".png")
+    line = refused(capsys, "run", "--world", "TS1", "--method", "dwa1", "--plot", plot)
+    assert "--plot " in line and "the file name is 304 bytes, over the 241" in line
+    assert str(plot) not in line  # the message shows the path shortened
+
+
+def test_two_world_files_with_one_name_are_refused_naming_both(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("d3dwa_bullet.evaluation.jobs.run_job", None)  # no episode may run
+    a = world_file(tmp_path / "a.yaml", "same")
+    b = world_file(tmp_path / "b.yaml", "same", goal=[1.2, 0.0])
+    for argv in (
+        ["eval", "--worlds", f"{a},{b}", "--methods", "dwa1"],
+        ["sweep", "--worlds", f"{a},{b}", "--layouts", "0", "--axes", "", "--profiles", "none",
+         "--methods", "dwa1"],
+    ):  # fmt: skip
+        out = tmp_path / argv[0]
+        line = refused(capsys, *argv, "--workers", "1", "--out", out)
+        assert f"worlds {a} and {b} are both named 'same'" in line
+        assert not (out / "results.csv").exists()
+    assert not (tmp_path / "eval").exists()  # eval refuses before it makes --out
+    shipped_twin = world_file(tmp_path / "ts1.yaml", "TS1")
+    line = refused(capsys, "eval", "--worlds", f"TS1,{shipped_twin}", "--methods", "dwa1",
+                   "--workers", "1", "--out", tmp_path / "twin")  # fmt: skip
+    assert f"and {shipped_twin} are both named 'TS1'" in line
+
+
+def test_worlds_whose_log_names_would_clash_are_refused(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("d3dwa_bullet.evaluation.jobs.run_job", None)
+    a = world_file(tmp_path / "a.yaml", "my world")
+    b = world_file(tmp_path / "b.yaml", "my_world")
+    line = refused(capsys, "eval", "--worlds", f"{a},{b}", "--methods", "dwa1", "--workers", "1",
+                   "--out", tmp_path / "out")  # fmt: skip
+    assert "would share the log file logs/my_world__dwa1__none__s0.npz" in line

@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
 from dataclasses import replace
 from pathlib import Path
 
 import pytest
 import torch
 
+import d3dwa_bullet.learning.training.greedy_eval as greedy_eval
 import d3dwa_bullet.learning.training.seeds as seeds_module
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.errors import ConfigError, TrainingError
@@ -195,3 +198,56 @@ def test_resume_restarts_a_seed_stopped_before_its_first_checkpoint(
     episodes = (run / "episodes.csv").read_text()
     assert "stale" not in episodes and episodes.splitlines()[0] == reference.splitlines()[0]
     assert json.loads((run / "summary.json").read_text())["env_steps"] >= 40
+
+
+def test_ctrl_c_during_a_seeds_final_evaluation_stops_the_whole_command(
+    tiny: str, tmp_path: Path, capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """One Ctrl-C while seed 0 runs its final evaluation: seed 1 never starts, the command
+    exits 130, and --resume ends seed 0 (without evaluating it again) and trains seed 1."""
+    evaluated: list[tuple[int, int]] = []
+
+    def evaluate(agent, config: TrainConfig, step: int) -> dict:
+        evaluated.append((config.seed, step))
+        if len(evaluated) == 1:
+            os.kill(os.getpid(), signal.SIGINT)  # the user's Ctrl-C, mid-evaluation
+        return {"step": step, "success_rate": 0.0, "collision_rate": 0.0, "mean_return": 0.0,
+                "mean_time_s": None, "outcomes": {"tiny": ["timeout"]}}  # fmt: skip
+
+    monkeypatch.setattr(greedy_eval, "evaluate", evaluate)
+    config = tmp_path / "c.json"
+    config.write_text(json.dumps(_config(tiny, total_steps=30, eval_every=1000).to_dict()))
+    out = tmp_path / "runs"
+    argv = ["train", "--config", str(config), "--seeds", "0-1", "--out", str(out), "--no-progress"]
+    assert main(argv) == 130
+    printed = capsys.readouterr()
+    assert "seed 0: interrupted" in printed.out
+    assert "seed 1: not started (interrupted)" in printed.out
+    assert "--resume" in printed.err.strip().splitlines()[-1]
+    assert evaluated == [(0, 30)]
+    assert not (out / "seed-1").exists()  # never started, not even its directory
+    seed0 = out / "seed-0"
+    assert json.loads((seed0 / "summary.json").read_text())["status"] == "interrupted"
+    assert not (seed0 / "policy").exists() and not (seed0 / "checkpoints" / "final").exists()
+    assert main([*argv, "--resume"]) == 0
+    assert evaluated == [(0, 30), (1, 30)]  # seed 0's evaluation was kept, not run again
+    for k in (0, 1):
+        assert json.loads((out / f"seed-{k}" / "summary.json").read_text())["status"] == "done"
+        assert (out / f"seed-{k}" / "policy" / "weights.pt").is_file()
+
+
+def test_ctrl_c_between_two_seeds_is_not_lost(
+    tiny: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A Ctrl-C while a finished seed is exported (outside any training) stops the loop too."""
+    real_finish = seeds_module._finish
+
+    def finish(outcome, *args):
+        if outcome.seed == 0:
+            os.kill(os.getpid(), signal.SIGINT)
+        return real_finish(outcome, *args)
+
+    monkeypatch.setattr(seeds_module, "_finish", finish)
+    outcomes = train_seeds(_config(tiny, total_steps=20), tmp_path / "r", [0, 1], progress=False)
+    assert [(o.seed, o.status) for o in outcomes] == [(0, "done"), (1, "stopped")]
+    assert not (tmp_path / "r" / "seed-1").exists()

@@ -21,7 +21,7 @@ from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
 from d3dwa_bullet.learning.agents.replay import check_replay_memory
 from d3dwa_bullet.learning.env import D3DWAEnv
 from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, resolve_world
-from d3dwa_bullet.limits import check_processes, check_weights
+from d3dwa_bullet.limits import MAX_TOTAL_STEPS, check_processes, check_weights
 from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.methods import LEARNED, method_observation
 from d3dwa_bullet.params import RewardParams
@@ -315,10 +315,11 @@ def load_train_config(path: str | os.PathLike[str], **overrides: Any) -> TrainCo
 
 def check_run_limits(config: TrainConfig) -> None:
     """ConfigError when this machine cannot run ``config``: more worker processes
-    (``n_envs``) than :func:`d3dwa_bullet.limits.max_processes`, or a replay buffer over
-    the memory bound. Checked when a run starts, before any process or buffer exists, not
+    (``n_envs``) than :func:`d3dwa_bullet.limits.max_processes`, a replay buffer over
+    the memory bound, or more than ``MAX_TOTAL_STEPS`` steps. Checked when a run starts, before any process or buffer exists, not
     when a config loads (a config.json written on a larger machine stays readable)."""
     check_processes("n_envs", config.n_envs)
+    MAX_TOTAL_STEPS.check("total_steps", config.total_steps, "steps")
     if isinstance(config.agent, D3QNConfig):
         check_replay_memory(config.agent.buffer_size, len(config.obs_layout), "agent.buffer_size")
 

@@ -1,5 +1,12 @@
 """Ctrl-C during training: the first SIGINT asks the loop to stop at the next step boundary
-(it then saves ``latest`` and returns "interrupted"); a second one aborts at once."""
+(it then saves ``latest`` and returns "interrupted"); a second one aborts at once.
+
+Handlers nest: ``train --seeds`` holds one around its loop over seeds and each seed's
+training holds its own. A Ctrl-C caught by the inner one is also a request to the outer
+one (the command stops before the next seed), and a request the outer one caught while the
+next seed was starting is the inner one's from its start, so one Ctrl-C is never lost
+between the two.
+"""
 
 from __future__ import annotations
 
@@ -19,12 +26,23 @@ class StopOnInterrupt:
             self._previous = signal.signal(signal.SIGINT, self._handle)
         except ValueError:  # not the main thread: no handler, Ctrl-C behaves as usual
             self._previous = None
+        outer = self._outer()
+        if outer is not None and outer.requested:
+            self.requested = True
         return self
+
+    def _outer(self) -> StopOnInterrupt | None:
+        """The StopOnInterrupt whose handler this one replaced, if any."""
+        outer = getattr(self._previous, "__self__", None)
+        return outer if isinstance(outer, StopOnInterrupt) else None
 
     def _handle(self, signum: int, frame: Any) -> None:
         if self.requested:
             raise KeyboardInterrupt
         self.requested = True
+        outer = self._outer()
+        if outer is not None:
+            outer.requested = True
 
     def __exit__(self, *exc: object) -> None:
         if self._previous is not None:

@@ -7,6 +7,12 @@ With ``--resume`` a seed whose run is complete is skipped, one with a checkpoint
 and one never started starts. A seed that fails is reported and the others still run; the
 failed ones resume later. ``--export DIR`` ships every finished seed as ``DIR/seed-<k>/``.
 
+Ctrl-C stops the whole command at the next safe point: the seed training stops at its next
+step boundary (or after its final evaluation) and saves ``latest``, the seeds after it never
+start (status "stopped"), every finished seed is kept, and ``--resume`` goes on from there.
+``<out>`` is locked while the command runs and each ``seed-<k>/`` while its seed trains
+(:mod:`d3dwa_bullet.dir_lock`): a second command into either is refused, not interleaved.
+
 With ``--ray ADDRESS`` (the forms ``d3dwa eval`` accepts) each seed is a Ray task asking
 for ``n_envs`` CPUs, its env workers inside it, writing the same run directory as a local
 run (the run directories must be on a filesystem every node sees). A task that dies is
@@ -20,11 +26,13 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from d3dwa_bullet.errors import ConfigError, D3DWAError, TrainingError
+from d3dwa_bullet.dir_lock import locked_dir
+from d3dwa_bullet.errors import BusyError, ConfigError, D3DWAError, TrainingError
 from d3dwa_bullet.evaluation.backends import check_address, ray_session
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.learning.training.checkpoints import export_policy
 from d3dwa_bullet.learning.training.config import TrainConfig, check_selection_rule
+from d3dwa_bullet.learning.training.interrupt import StopOnInterrupt
 from d3dwa_bullet.learning.training.run_dir import SUMMARY_FILE
 from d3dwa_bullet.learning.training.trainer import train
 from d3dwa_bullet.loading import load_json
@@ -38,7 +46,8 @@ class SeedOutcome:
     seed: int
     out: Path
     status: str
-    """'done', 'skipped' (already complete), 'interrupted' or 'failed'."""
+    """'done', 'skipped' (already complete), 'interrupted', 'failed' or 'stopped' (not
+    started: the command was interrupted before this seed)."""
     summary: dict[str, Any] | None = None
     error: str | None = None
     exported: Path | None = None
@@ -65,13 +74,31 @@ def train_seeds(
     """Train ``config`` once per seed into ``out/seed-<k>/`` (module docstring).
 
     Without ``resume``, ConfigError if any seed's directory already holds a run (before
-    anything trains). A KeyboardInterrupt stops after the current seed's checkpoint.
+    anything trains). BusyError if another process writes ``out`` or a seed's directory.
+    Ctrl-C (SIGINT) stops after the current seed's checkpoint (module docstring).
     """
     out = Path(out)
     if not seeds:
         raise ConfigError("--seeds: no seed given")
     check_selection_rule(config)
     check_address(ray_address)
+    with locked_dir(out):
+        for seed in seeds:  # a seed another command trains is refused before any seed trains
+            with locked_dir(seed_dir(out, seed)):  # (each seed's training locks it again)
+                pass
+        return _train_seeds(config, out, seeds, resume, export, progress, on_seed, ray_address)
+
+
+def _train_seeds(
+    config: TrainConfig,
+    out: Path,
+    seeds: Sequence[int],
+    resume: bool,
+    export: str | Path | None,
+    progress: bool,
+    on_seed: Callable[[SeedOutcome], None] | None,
+    ray_address: str | None,
+) -> list[SeedOutcome]:
     if not resume:
         taken = [
             str(seed_dir(out, s)) for s in seeds if (seed_dir(out, s) / "config.json").exists()
@@ -93,16 +120,23 @@ def train_seeds(
     if ray_address is not None:
         outcomes += _train_on_ray(config, todo, ray_address, export, on_seed)
         return sorted(outcomes, key=lambda o: order[o.seed])
-    for seed, run, again in todo:
-        try:
-            summary = train(replace(config, seed=seed), run, resume=again, progress=progress)
-        except D3DWAError as err:
-            outcome = SeedOutcome(seed, run, "failed", error=str(err))
-        else:
-            outcome = SeedOutcome(seed, run, summary["status"], summary=summary)
-        outcomes.append(_finish(outcome, config, export, on_seed))
-        if outcome.status == "interrupted":
-            break
+    with StopOnInterrupt() as stop:  # each seed's training holds its own inside this one
+        for seed, run, again in todo:
+            if stop.requested:  # Ctrl-C: no further seed starts
+                outcome = SeedOutcome(seed, run, "stopped")
+            else:
+                try:
+                    summary = train(replace(config, seed=seed), run, resume=again,
+                                    progress=progress)  # fmt: skip
+                except BusyError:  # another command trains this seed: not this seed's failure
+                    raise
+                except D3DWAError as err:
+                    outcome = SeedOutcome(seed, run, "failed", error=str(err))
+                else:
+                    outcome = SeedOutcome(seed, run, summary["status"], summary=summary)
+                    if outcome.status == "interrupted":
+                        stop.requested = True
+            outcomes.append(_finish(outcome, config, export, on_seed))
     return sorted(outcomes, key=lambda o: order[o.seed])
 
 

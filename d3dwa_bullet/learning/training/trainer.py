@@ -15,7 +15,9 @@ it (``state``).
 Failure safety: checkpoints are swapped in atomically; an exception in the loop saves
 nothing (the last good ``latest`` stays); non-finite weights are never saved; Ctrl-C
 (SIGINT) stops at the next step boundary, saves ``latest`` and returns with status
-"interrupted" (a second Ctrl-C aborts at once, saving nothing).
+"interrupted" (a second Ctrl-C aborts at once, saving nothing). A Ctrl-C during the final
+evaluation lets it finish, saves ``latest`` with it and returns "interrupted" too; the
+resume then only saves ``final`` and the policy.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from tqdm import tqdm
 import d3dwa_bullet.learning.training.checkpoints as checkpoints
 import d3dwa_bullet.learning.training.greedy_eval as greedy_eval
 import d3dwa_bullet.learning.training.run_dir as run_dir
+from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import TrainingError
 from d3dwa_bullet.learning.agents.checkpoint import Agent
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
@@ -185,6 +188,8 @@ class Trainer:
                 ):
                     self._evaluate_and_keep(logs, agent, bar)
                 self._save_latest(agent, logs, collector)
+                if stop.requested:  # Ctrl-C during the final evaluation: resume ends the run
+                    status = "interrupted"
                 if status == "done":
                     final_eval = p.evals[-1] if p.evals else None
                     self.save_policy("final", agent, {"selected": "final", "eval": final_eval})
@@ -372,5 +377,8 @@ def train(
     equal the saved one except for total_steps (to extend a run). ConfigError for a bad
     config, an existing run without ``resume``, or nothing to resume. The summary's
     "status" is "done" or "interrupted" (Ctrl-C: ``latest`` was saved, resume later).
+    BusyError if another process is training into ``out_dir`` (:mod:`d3dwa_bullet.dir_lock`):
+    the directory is locked before anything is read or written in it.
     """
-    return Trainer(config, out_dir, resume).run(progress)
+    with locked_dir(out_dir):
+        return Trainer(config, out_dir, resume).run(progress)
