@@ -75,6 +75,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         Job,
         check_distinct,
         evaluate,
+        key_apart,
         make_noise,
         world_figures,
     )
@@ -88,7 +89,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     methods = [check_method(m) for m in list_arg(args.methods, "--methods", default_methods)]
     world_args = list_arg(args.worlds, "--worlds", lambda: world_names(*TABLE1_GROUPS))
     policy = policy_arg(args.policy, methods)
-    worlds = [load_cli_world(w, args.allow_empty) for w in world_args]
+    worlds, renamed = key_apart([load_cli_world(w, args.allow_empty) for w in world_args])
     if args.seeds < 1:
         raise ConfigError(f"--seeds must be >= 1, got {args.seeds}")
     MAX_SEEDS.check("--seeds", args.seeds, "seeds")
@@ -123,7 +124,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
             ray_address=args.ray, settings=settings,
         )  # fmt: skip
         recovery = config.recovery_name
-        table = eval_markdown(rows, methods, names, seeds, args.noise, recovery=recovery)
+        table = eval_markdown(
+            rows, methods, names, seeds, args.noise, recovery=recovery, renamed=renamed
+        )
         atomic_write_text(out / "table.md", table)
         atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names))
         figures = world_figures(out, worlds, methods, seeds[0], args.noise, figure_seeds(rows))

@@ -11,6 +11,7 @@ results.csv ends up in job order either way.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import re
@@ -217,6 +218,28 @@ def _evaluate(
         rank = {k: i for i, k in enumerate(keys)}
         rows.sort(key=lambda r: rank[row_key(r)])
     return rows
+
+
+def key_apart(worlds: Sequence[World]) -> tuple[list[World], dict[str, str]]:
+    """Worlds whose results keys are distinct, and what each renamed key stands for.
+
+    Results, logs and figures name a world by its ``name:``. Where two different worlds of
+    one command share a name (two files, or a custom world named ``TS1`` beside the shipped
+    one), the first listed keeps it and every other becomes ``<name>@<digest>``, the first 8
+    hex digits of the SHA-256 of its content; returns the worlds and {key: source} of the
+    renamed ones, which the table prints. The same world listed twice stays one world."""
+    first: dict[str, World] = {}
+    out, renamed = [], {}
+    for world in worlds:
+        seen = first.setdefault(world.name, world)
+        if seen is world or replace(seen, source="") == replace(world, source=""):
+            out.append(world)
+            continue
+        content = repr(replace(world, source="")).encode()
+        key = f"{world.name}@{hashlib.sha256(content).hexdigest()[:8]}"
+        renamed[key] = world.source
+        out.append(replace(world, name=key))
+    return out, renamed
 
 
 def check_distinct(jobs: Sequence[Job]) -> None:

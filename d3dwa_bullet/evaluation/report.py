@@ -15,7 +15,7 @@ figure title; the page is written atomically.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -70,15 +70,23 @@ def eval_markdown(
     noise: str,
     title: str | None = None,
     recovery: str = "none",
+    renamed: Mapping[str, str] | None = None,
 ) -> str:
     """The evaluation page of ``d3dwa eval`` (table.md): success and time over training
     seeds with their intervals, then the paper's layout pooled over every episode. With a
-    recovery layer the page says so under the title (the paper track's page is unchanged)."""
+    recovery layer the page says so under the title, and worlds keyed apart from another of
+    the same name (renamed: {key: source}, ``jobs.key_apart``) say which file they are; the
+    paper track's page of distinct worlds is unchanged."""
     span = f"{seeds[0]}..{seeds[-1]}" if seeds else "none"
+    keys = "".join(
+        f"World `{key}` is {source} (keyed apart from another world of that name).\n\n"
+        for key, source in (renamed or {}).items()
+    )
     return (
         f"# {title or 'Evaluation: ' + ', '.join(worlds)}\n\n"
         f"{recovery_note(recovery)}"
         f"Noise profile: `{noise}`; evaluation seeds: {span}.\n\n"
+        f"{keys}"
         "## Over training seeds\n\n"
         "A run is one training seed of a learned method (its episodes averaged) or one "
         "evaluation seed of a fixed method. Intervals: 95 % stratified bootstrap over runs "

@@ -3,6 +3,7 @@ the option or file, exit status 2, before any episode, process or large allocati
 
 from __future__ import annotations
 
+import csv
 import re
 import struct
 import time
@@ -41,7 +42,9 @@ def test_an_alias_bomb_profile_is_one_line_and_fast(tmp_path, capsys):
     bomb.write_text(alias_bomb())
     start = time.perf_counter()
     line = refused(capsys, "run", "--world", "TS1", "--method", "dwa1", "--noise", bomb)
-    assert time.perf_counter() - start < 2.0
+    # a guard, not a speed figure: unbounded, the bomb took 27 s and ended in MemoryError;
+    # refused it takes well under a second (shared CI machines vary, hence the slack)
+    assert time.perf_counter() - start < 10.0
     assert f"{bomb}: not valid YAML: line " in line and "brings the nodes that aliases" in line
 
 
@@ -201,24 +204,32 @@ def test_a_plot_file_name_too_long_is_refused_before_the_episode(tmp_path, capsy
     assert str(plot) not in line  # the message shows the path shortened
 
 
-def test_two_world_files_with_one_name_are_refused_naming_both(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr("d3dwa_bullet.evaluation.jobs.run_job", None)  # no episode may run
+def test_two_world_files_with_one_name_are_keyed_apart_by_eval_and_refused_by_sweep(
+    tmp_path, capsys, monkeypatch
+):
     a = world_file(tmp_path / "a.yaml", "same")
     b = world_file(tmp_path / "b.yaml", "same", goal=[1.2, 0.0])
-    for argv in (
-        ["eval", "--worlds", f"{a},{b}", "--methods", "dwa1"],
-        ["sweep", "--worlds", f"{a},{b}", "--layouts", "0", "--axes", "", "--profiles", "none",
-         "--methods", "dwa1"],
-    ):  # fmt: skip
-        out = tmp_path / argv[0]
-        line = refused(capsys, *argv, "--workers", "1", "--out", out)
-        assert f"worlds {a} and {b} are both named 'same'" in line
-        assert not (out / "results.csv").exists()
-    assert not (tmp_path / "eval").exists()  # eval refuses before it makes --out
-    shipped_twin = world_file(tmp_path / "ts1.yaml", "TS1")
-    line = refused(capsys, "eval", "--worlds", f"TS1,{shipped_twin}", "--methods", "dwa1",
-                   "--workers", "1", "--out", tmp_path / "twin")  # fmt: skip
-    assert f"and {shipped_twin} are both named 'TS1'" in line
+    out = tmp_path / "eval"
+    code = main(["eval", "--worlds", f"{a},{b}", "--methods", "dwa1", "--workers", "1",
+                 "--out", str(out)])  # fmt: skip
+    assert code == 0
+    with (out / "results.csv").open(newline="") as fh:
+        keys = [r["world"] for r in csv.DictReader(fh)]
+    assert keys[0] == "same" and keys[1].startswith("same@") and len(keys[1]) == len("same@") + 8
+    table = (out / "table.md").read_text()
+    assert f"World `{keys[1]}` is {b} (keyed apart from another world of that name)" in table
+    assert (out / "figures" / f"{keys[1]}_time.png").is_file()
+    # the same world listed twice is one world, not two keys
+    code = main(["eval", "--worlds", f"{a},{a}", "--methods", "dwa1", "--workers", "1",
+                 "--out", str(tmp_path / "twice")])  # fmt: skip
+    assert code == 0 and (tmp_path / "twice" / "results.csv").read_text().count("same") == 1
+    capsys.readouterr()
+    monkeypatch.setattr("d3dwa_bullet.evaluation.jobs.run_job", None)  # no episode may run
+    argv = ["sweep", "--worlds", f"{a},{b}", "--layouts", "0", "--axes", "", "--profiles",
+            "none", "--methods", "dwa1", "--workers", "1", "--out", tmp_path / "sweep"]  # fmt: skip
+    line = refused(capsys, *argv)
+    assert f"worlds {a} and {b} are both named 'same'" in line
+    assert not (tmp_path / "sweep" / "results.csv").exists()
 
 
 def test_worlds_whose_log_names_would_clash_are_refused(tmp_path, capsys, monkeypatch):
