@@ -31,7 +31,7 @@ def test_a_huge_seed_range_is_refused_before_it_is_expanded():
     start = time.perf_counter()
     with pytest.raises(ConfigError, match=r"--seeds: 100000000000 seeds is over the limit"):
         parse_seeds("0-99999999999")
-    assert time.perf_counter() - start < 0.1  # nothing the size of the range was built
+    assert time.perf_counter() - start < 5.0  # nothing the size of the range was built
     top = int(MAX_SEEDS.value)
     assert len(parse_seeds(f"0-{top - 1}")) == top
     with pytest.raises(ConfigError, match="--policy-seeds: .* seeds is over the limit"):

@@ -71,7 +71,9 @@ def test_an_alias_bomb_is_refused_fast_naming_the_file(tmp_path):
     start = time.perf_counter()
     with pytest.raises(ProfileError, match=r"bomb\.yaml: .*alias \*a\d brings the nodes .* past"):
         load_yaml(path, ProfileError, "profile YAML")
-    assert time.perf_counter() - start < 2.0
+    assert (
+        time.perf_counter() - start < 10.0
+    )  # a guard (unbounded: 27 s and MemoryError), not a speed figure
 
 
 def test_the_aliases_yaml_safe_dump_writes_still_load():
@@ -126,7 +128,7 @@ def test_a_huge_file_is_refused_without_being_read(tmp_path):
     start = time.perf_counter()
     with pytest.raises(ConfigError, match=r"big\.json: 68719476736 bytes is over the limit of"):
         load_json(path, ConfigError)
-    assert time.perf_counter() - start < 1.0
+    assert time.perf_counter() - start < 10.0  # a guard, not a speed figure
     path.write_text(" " * int(MAX_DOCUMENT_BYTES.value) + "1")  # one byte over
     with pytest.raises(ConfigError, match="over the limit"):
         load_json(path, ConfigError)
