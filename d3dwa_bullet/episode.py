@@ -252,7 +252,7 @@ class Episode:
         goal = goal_in_body(est_pose, self.world.goal)
         rescue = None
         if self.recovery is not None:
-            rescue = self.recovery.command(t, est_pose, self.points, (goal[0], goal[1]))
+            rescue = self.recovery.command(t, est_pose, self.points, (goal[0], goal[1]), est_vel)
         if rescue is None:
             result = plan(est_vel, self.points, goal, action, self.config.planner)
         else:

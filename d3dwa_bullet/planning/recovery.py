@@ -10,7 +10,8 @@ instead of the planner's. Off by default: the paper's stack has no such layer
   the pose where it last made progress within ``window`` seconds, judged on the *estimated*
   pose, as a robot would.
 * Behaviours (``spin``, ``back_up``), one per failed check, round robin; after
-  ``max_recoveries`` the layer gives up and the episode runs out.
+  ``max_recoveries`` the layer gives up and the episode runs out. A behaviour ends with the
+  robot stopped: it hands back at rest, as Nav2's do.
 * Safety: a motion is admissible like a planner sample: every footprint circle centre along
   it stays farther than r + m from every point the robot has seen, now *or* in the last
   ``memory`` seconds (points carried along by the estimated pose, since Kachaka's 240 deg
@@ -43,6 +44,14 @@ MEMORY_CELL = 0.02
 """Remembered points are merged on a lattice of this cell, m (the planner's resolution)."""
 CLEARANCE_TOLERANCE = 1e-6
 """A motion that keeps the clearance the robot has now, to rounding, is not getting closer, m."""
+REST = (0.02, 0.1)
+"""(|v| m/s, |w| rad/s) of the estimate below which the robot counts as at rest: a behaviour
+hands back only then (Nav2's behaviours end with a zero twist). Handed back turning at
+1 rad/s, the planner's dynamic window (+-0.3 rad/s a step) holds no way to stop, and under
+`harsh` its fallback then kept spinning and drove into an obstacle (docs/design.md#recovery)."""
+BRAKE_LIMIT = 1.0
+"""A stop that the estimate has not confirmed after this long hands back anyway, s (at
+3 rad/s^2 a 1 rad/s turn stops in 0.33 s; the rest is latency and estimator lag)."""
 MEMORY_HITS = 2
 """A remembered cell counts as an obstacle once this many returns fell in it: a surface is
 hit by several beams (0.5 deg apart: 9 mm at 1 m) and by every scan that sees it, a spurious
@@ -225,6 +234,8 @@ class _Running:
     def __init__(self, behaviour: str, amount: float, direction: float, pose: Pose, t: float):
         self.behaviour, self.amount, self.direction = behaviour, amount, direction
         self.last, self.t0, self.done = pose, t, 0.0
+        self.braking_since: float | None = None
+        """When the motion ended and the robot began to stop (None while it moves)."""
 
     def advance(self, pose: Pose) -> float:
         """Add the motion from the last pose to this one (turned angle or distance backed)
@@ -277,18 +288,31 @@ class Recovery:
         return None if self._running is None else self._running.behaviour
 
     def command(
-        self, t: float, pose: Pose, points: np.ndarray, goal_body: tuple[float, float]
+        self,
+        t: float,
+        pose: Pose,
+        points: np.ndarray,
+        goal_body: tuple[float, float],
+        velocity: tuple[float, float] = (0.0, 0.0),
     ) -> RecoveryCommand | None:
         """The command of this control step, or None to let the controller and planner drive.
 
         t: s; pose: estimated (x, y, yaw); points: (M, 2) valid returns in base_link now;
-        goal_body: the goal in base_link (a spin turns toward its side first).
+        goal_body: the goal in base_link (a spin turns toward its side first); velocity: the
+        estimated (v, w), m/s and rad/s: a behaviour whose motion is over commands a stop
+        until the robot is at rest (REST, at most BRAKE_LIMIT), then hands back.
         """
         self.memory.add(pose, points)
-        if self._running is not None:
-            cmd = self._continue(t, pose, points)
-            if cmd is not None:
-                return cmd
+        run = self._running
+        if run is not None:
+            if run.braking_since is None:
+                cmd = self._continue(t, pose, points)
+                if cmd is not None:
+                    return cmd
+                run.braking_since = t
+            at_rest = abs(velocity[0]) <= REST[0] and abs(velocity[1]) <= REST[1]
+            if not at_rest and t - run.braking_since < BRAKE_LIMIT - 1e-9:
+                return RecoveryCommand(0.0, 0.0, run.behaviour)
             self._running = None
             self.checker.reset(t, pose)
             return None
