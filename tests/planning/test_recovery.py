@@ -244,3 +244,37 @@ def test_recovery_names():
         recovery_params("bogus")
     with pytest.raises(ConfigError, match="shorter than one control step"):
         Recovery(RecoveryParams(window=0.05), PlannerParams(), DT, LIDAR_X, FOV)
+
+
+def test_a_behaviour_hands_back_only_at_rest():
+    # Handed back turning, the planner's window (+-0.3 rad/s a step) holds no stop: the layer
+    # commands a stop until the estimate is at rest, at most BRAKE_LIMIT, then hands back.
+    rec = layer(spin_angle=0.3)
+    rec.command(0.0, (-1.0, 0.0, 0.0), np.zeros((0, 2)), LEFT)
+    cmd, t = stand(rec, (0.0, 0.0, 0.0), np.zeros((0, 2)), DT, 11.0)
+    yaw = 0.0
+    while cmd is not None and cmd.w != 0.0:
+        yaw += cmd.w * DT
+        t = round(t + DT, 9)
+        cmd = rec.command(t, (0.0, 0.0, yaw), np.zeros((0, 2)), LEFT, (0.0, 1.0))
+    assert cmd is not None and (cmd.v, cmd.w) == (0.0, 0.0) and cmd.behaviour == "spin"
+    stops = 1
+    for w in (0.7, 0.4):  # still turning: keeps stopping
+        t = round(t + DT, 9)
+        cmd = rec.command(t, (0.0, 0.0, yaw), np.zeros((0, 2)), LEFT, (0.0, w))
+        assert cmd == (0.0, 0.0, "spin")
+        stops += 1
+    t = round(t + DT, 9)
+    assert rec.command(t, (0.0, 0.0, yaw), np.zeros((0, 2)), LEFT, (0.0, 0.05)) is None
+    assert rec.active is None and stops == 3
+    # an estimate that never settles (a biased gyro) hands back after BRAKE_LIMIT anyway
+    rec = layer(spin_angle=0.3)
+    rec.command(0.0, (-1.0, 0.0, 0.0), np.zeros((0, 2)), LEFT)
+    cmd, t = stand(rec, (0.0, 0.0, 0.0), np.zeros((0, 2)), DT, 11.0)
+    yaw, n = 0.0, 0
+    while cmd is not None:
+        yaw += cmd.w * DT
+        t = round(t + DT, 9)
+        cmd = rec.command(t, (0.0, 0.0, yaw), np.zeros((0, 2)), LEFT, (0.0, 0.5))
+        n += cmd is not None and cmd.w == 0.0
+    assert n == 10  # 1 s of stop commands at 10 Hz
