@@ -19,6 +19,7 @@ from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.dir_lock import LOCK_FILE, locked_dir
 from d3dwa_bullet.errors import BusyError
 from tests.conftest import ONE_SECOND_WORLD
+from tests.support.cli import refused
 
 HOLD = (
     "import sys, time\n"
@@ -64,14 +65,6 @@ def hold() -> Iterator:
     yield start
     for h in holders:
         h.kill()
-
-
-def refused(capsys: pytest.CaptureFixture, *argv: object) -> str:
-    code = main([str(a) for a in argv])
-    err = capsys.readouterr().err
-    lines = err.strip().splitlines()
-    assert code == 2 and len(lines) == 1 and lines[0].startswith("d3dwa: error: "), (code, err)
-    return lines[0]
 
 
 def snapshot(directory: Path) -> dict[str, str]:

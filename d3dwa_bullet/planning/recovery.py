@@ -366,7 +366,7 @@ class Recovery:
         """How far from base_link a remembered point can matter to a recovery motion, m."""
         p, fp = self.params, self.planner.footprint
         body = float(np.abs(fp.centers_x).max()) + self.planner.admissible_clearance
-        return body + max(p.backup_distance, 0.0) + 2 * MOTION_STEP
+        return body + p.backup_distance + 2 * MOTION_STEP
 
     def _ahead(self, behaviour: str, remaining: float) -> float:
         """How much of the motion is checked now: ``lookahead`` seconds of it, at most what

@@ -32,6 +32,7 @@ from d3dwa_bullet.cli.output import json_text, strict
 from d3dwa_bullet.sim.scan import LaserScan
 from tests.conftest import ONE_SECOND_WORLD
 from tests.support.bag_messages import scan_msg
+from tests.support.cli import refused, run
 from transfer import sim_bridge
 from transfer.bag_writer import BagRecorder
 from transfer.replay import replay_bag
@@ -47,20 +48,6 @@ MESH_ONLY_SDF = """<?xml version="1.0"?>
   </collision></link></model>
 </world></sdf>
 """
-
-
-def run(capsys: pytest.CaptureFixture, *argv: object) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
-
-
-def refused(capsys: pytest.CaptureFixture, *argv: object) -> str:
-    """Run argv, expect exit 2 and exactly one ``d3dwa: error:`` line; return that line."""
-    code, _, err = run(capsys, *argv)
-    lines = err.strip().splitlines()
-    assert code == 2 and len(lines) == 1 and lines[0].startswith("d3dwa: error: "), (code, err)
-    return lines[0]
 
 
 def strict_json(text: str):

@@ -16,16 +16,8 @@ import yaml
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.limits import MAX_TIME_LIMIT_S, max_processes
 from tests.conftest import ONE_SECOND_WORLD
+from tests.support.cli import refused
 from tests.test_loading import alias_bomb
-
-
-def refused(capsys: pytest.CaptureFixture, *argv: object) -> str:
-    """Run argv, expect exit 2 and exactly one ``d3dwa: error:`` line; return that line."""
-    code = main([str(a) for a in argv])
-    err = capsys.readouterr().err
-    lines = err.strip().splitlines()
-    assert code == 2 and len(lines) == 1 and lines[0].startswith("d3dwa: error: "), (code, err)
-    return lines[0]
 
 
 def png_header(width: int, height: int) -> bytes:

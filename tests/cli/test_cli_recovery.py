@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 import yaml
 
-from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.plotting import draw_recoveries
 from d3dwa_bullet.evaluation.results import CSV_FIELDS
+from tests.support.cli import refused, run
 
 GOAL_BEHIND = {
     "name": "behind",
@@ -28,19 +28,6 @@ GOAL_BEHIND = {
     "time_limit": 15.0,
     "obstacles": [],
 }
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
-def refused(capsys, *argv) -> str:
-    code, _, err = run(capsys, *argv)
-    lines = err.strip().splitlines()
-    assert code == 2 and len(lines) == 1 and lines[0].startswith("d3dwa: error: "), (code, err)
-    return lines[0]
 
 
 def header(out: Path) -> list[str]:

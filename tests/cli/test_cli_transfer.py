@@ -16,6 +16,7 @@ import pytest
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D
 from tests.support.bag_messages import scan_msg
+from tests.support.cli import run
 from transfer import sim_bridge as transfer_bridge
 from transfer.bag_writer import BagRecorder
 from transfer.replay import CSV_COLUMNS, ScanStep, SkipScan, replay_bag
@@ -23,12 +24,6 @@ from transfer.topics import LASER_SCAN, TopicMap
 
 MS = 1_000_000
 TOPICS = TopicMap()
-
-
-def run(capsys: pytest.CaptureFixture, *argv: object) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def error_line(err: str) -> str:

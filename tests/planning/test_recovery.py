@@ -56,6 +56,13 @@ def stand(rec: Recovery, pose, world_points, t0: float, seconds: float, goal=LEF
     return None, t
 
 
+def stuck_in_the_open(rec: Recovery):
+    """Arrive from 1 m back (so the space behind was seen), then stand past the progress
+    window with nothing in view: the layer's first command and its time."""
+    rec.command(0.0, (-1.0, 0.0, 0.0), np.zeros((0, 2)), LEFT)
+    return stand(rec, (0.0, 0.0, 0.0), np.zeros((0, 2)), DT, 11.0)
+
+
 def test_progress_checker_has_nav2_semantics():
     checker = ProgressChecker(radius=0.5, window=10.0)
     assert not checker.stuck(0.0, (0.0, 0.0, 0.0))
@@ -77,9 +84,7 @@ def test_nothing_happens_while_the_robot_progresses_or_before_the_window():
 
 def test_a_stuck_robot_in_the_open_spins_toward_the_goal_side():
     rec = layer()
-    history = (-1.0, 0.0, 0.0)  # it drove here from 1 m back, so the space behind was seen
-    rec.command(0.0, history, np.zeros((0, 2)), LEFT)
-    cmd, t = stand(rec, (0.0, 0.0, 0.0), np.zeros((0, 2)), DT, 11.0)
+    cmd, t = stuck_in_the_open(rec)
     assert cmd is not None and cmd.behaviour == "spin" and cmd.w > 0 and cmd.v == 0.0
     assert 10.0 < t <= 10.2 and rec.started == 1 and rec.active == "spin"
     cmd, _ = stand(rec, (0.0, 0.0, 0.0), np.zeros((0, 2)), t + DT, 1.0, goal=(0.0, -1.0))
@@ -88,8 +93,7 @@ def test_a_stuck_robot_in_the_open_spins_toward_the_goal_side():
 
 def test_a_spin_runs_its_angle_and_then_hands_back():
     rec = layer(spin_angle=1.0)
-    rec.command(0.0, (-1.0, 0.0, 0.0), np.zeros((0, 2)), LEFT)
-    cmd, t = stand(rec, (0.0, 0.0, 0.0), np.zeros((0, 2)), DT, 11.0)
+    cmd, t = stuck_in_the_open(rec)
     yaw, steps = 0.0, 0
     while cmd is not None:
         yaw += cmd.w * DT
@@ -183,8 +187,7 @@ def test_a_behaviour_stops_where_its_motion_stops_being_admissible():
 
 def test_the_layer_gives_up_after_max_recoveries():
     rec = layer(max_recoveries=1, spin_angle=0.2)
-    rec.command(0.0, (-1.0, 0.0, 0.0), np.zeros((0, 2)), LEFT)
-    cmd, t = stand(rec, (0.0, 0.0, 0.0), np.zeros((0, 2)), DT, 11.0)
+    cmd, t = stuck_in_the_open(rec)
     assert cmd is not None
     yaw = 0.0
     while cmd is not None:
@@ -250,8 +253,7 @@ def test_a_behaviour_hands_back_only_at_rest():
     # Handed back turning, the planner's window (+-0.3 rad/s a step) holds no stop: the layer
     # commands a stop until the estimate is at rest, at most BRAKE_LIMIT, then hands back.
     rec = layer(spin_angle=0.3)
-    rec.command(0.0, (-1.0, 0.0, 0.0), np.zeros((0, 2)), LEFT)
-    cmd, t = stand(rec, (0.0, 0.0, 0.0), np.zeros((0, 2)), DT, 11.0)
+    cmd, t = stuck_in_the_open(rec)
     yaw = 0.0
     while cmd is not None and cmd.w != 0.0:
         yaw += cmd.w * DT
@@ -269,8 +271,7 @@ def test_a_behaviour_hands_back_only_at_rest():
     assert rec.active is None and stops == 3
     # an estimate that never settles (a biased gyro) hands back after BRAKE_LIMIT anyway
     rec = layer(spin_angle=0.3)
-    rec.command(0.0, (-1.0, 0.0, 0.0), np.zeros((0, 2)), LEFT)
-    cmd, t = stand(rec, (0.0, 0.0, 0.0), np.zeros((0, 2)), DT, 11.0)
+    cmd, t = stuck_in_the_open(rec)
     yaw, n = 0.0, 0
     while cmd is not None:
         yaw += cmd.w * DT
