@@ -35,6 +35,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--colour-by", choices=("time", "tau"), default="time", help="trajectory colour in --plot"
     )
     add_episode_options(p)
+    p.add_argument(
+        "--onnx",
+        metavar="FILE",
+        help="an ONNX policy exported by `d3dwa export --onnx` for a learned method, run by "
+        "onnxruntime (instead of --policy: checks the export drives the same episode)",
+    )
     p.set_defaults(func=cmd_run, interrupted="the episode was not finished; nothing written")
 
 
@@ -46,7 +52,11 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     config = episode_config(args)
     world = load_task_world(args)
-    controller = make_controller(args.method, args.policy)
+    if args.onnx is not None and args.policy is not None:
+        raise ConfigError(
+            f"--onnx {args.onnx} and --policy {args.policy} both name the policy: give one"
+        )
+    controller = make_controller(args.method, args.policy, onnx=args.onnx)
     if args.plot:
         check_out_file(args.plot, "--plot", figure_suffixes())
     result = run_episode(
