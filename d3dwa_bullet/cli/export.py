@@ -20,14 +20,6 @@ from pathlib import Path
 from d3dwa_bullet.cli.output import check_out_dir, json_text
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.io import file_stem
-from d3dwa_bullet.methods import (
-    FIXED,
-    LEARNED,
-    ONNX_METHODS,
-    check_method,
-    default_policy_path,
-    method_observation,
-)
 from d3dwa_bullet.seed_dirs import SEED_DIR, parse_seeds, seed_dirs
 
 ONNX_SUFFIX = ".onnx"
@@ -43,7 +35,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--method",
-        help=f"one of {', '.join(ONNX_METHODS)} (default: every one with shipped policies)",
+        help="a learned method whose policy is a network, such as d3dwa (not dqdwa; default: "
+        "every one with shipped policies)",
     )
     p.add_argument(
         "--policy",
@@ -61,12 +54,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    # start-up cost: the exporter imports torch and onnx, which `d3dwa --help` never needs
+    # start-up cost: the exporter imports torch and onnx, the method registry the planner
+    # (numba), none of which `d3dwa --help` needs
     from d3dwa_bullet.learning.agents.checkpoint import read_meta
     from d3dwa_bullet.learning.agents.onnx_export import export_onnx
+    from d3dwa_bullet.methods import LEARNED, method_observation
 
     methods = _methods(args.method, args.policy)
-    out = check_out_dir(args.onnx, "--onnx")
+    out = Path(args.onnx)
     jobs: list[tuple[str, Path, Path]] = []
     for method in methods:
         for source in _sources(method, args.policy, args.seeds, explicit=args.method is not None):
@@ -82,6 +77,7 @@ def cmd_export(args: argparse.Namespace) -> int:
             f"no shipped policy of {', '.join(methods)} to export; train one, or pass "
             "--method and --policy DIR"
         )
+    check_out_dir(out, "--onnx")
     rows = []
     for method, source, dest in jobs:
         reader = f"method {method!r}"
@@ -116,6 +112,8 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 def _methods(method: str | None, policy: str | None) -> list[str]:
     """The methods to export: --method checked, or every network method."""
+    from d3dwa_bullet.methods import FIXED, ONNX_METHODS, check_method  # start-up cost: numba
+
     if method is None:
         if policy is not None:
             raise ConfigError(f"--policy {policy} needs --method: which method's policy is it?")
@@ -136,6 +134,8 @@ def _sources(method: str, policy: str | None, seeds: str | None, *, explicit: bo
 
     explicit: the user named the method, so a method without policies is an error rather
     than nothing to do."""
+    from d3dwa_bullet.methods import default_policy_path  # start-up cost: numba
+
     folder = Path(policy) if policy is not None else default_policy_path(method)
     if (folder / "meta.json").exists():
         if seeds is not None:
