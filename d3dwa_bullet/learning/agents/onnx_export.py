@@ -243,7 +243,8 @@ def _check(
 
 def _source(root: Path, meta: dict[str, Any]) -> dict[str, Any]:
     """The checkpoint fields worth keeping in the ONNX file (where it came from)."""
-    extra = meta.get("metadata") if isinstance(meta.get("metadata"), dict) else {}
+    extra = meta.get("metadata")
+    extra = extra if isinstance(extra, dict) else {}
     weights = meta["files"].get(WEIGHTS_FILE, {})
     return {
         "checkpoint": str(root),
