@@ -71,7 +71,8 @@ def cmd_export(args: argparse.Namespace) -> int:
                     f"{source}: a {meta['agent']} policy ({meta['method']}) is not a network; "
                     f"only D3QN policies export to ONNX"
                 )
-            jobs.append((method, source, out / method / f"{file_stem(source.name)}{ONNX_SUFFIX}"))
+            name = file_stem(source.resolve().name)  # "." names the directory it is
+            jobs.append((method, source, out / method / f"{name}{ONNX_SUFFIX}"))
     if not jobs:
         raise CheckpointError(
             f"no shipped policy of {', '.join(methods)} to export; train one, or pass "

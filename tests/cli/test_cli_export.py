@@ -56,7 +56,7 @@ def test_export_one_method_some_seeds_as_json(capsys, tmp_path: Path) -> None:
     )
 
 
-def test_export_a_trained_progress_checkpoint(capsys, tmp_path: Path) -> None:
+def test_export_a_trained_progress_checkpoint(capsys, tmp_path: Path, monkeypatch) -> None:
     agent = D3QNAgent(ACTIONS_FULL, D3QNConfig(hidden=(16,)), observation_layout("progress"))
     ckpt = save_checkpoint(tmp_path / "runs" / "best", agent, method="d3dwa-pa")
     out_dir = tmp_path / "onnx"
@@ -65,6 +65,9 @@ def test_export_a_trained_progress_checkpoint(capsys, tmp_path: Path) -> None:
     )
     assert code == 0 and "progress observation" in out
     assert files_under(out_dir) == ["d3dwa-pa/best.onnx"]
+    monkeypatch.chdir(ckpt)  # "." is named after the directory it is
+    code, _, _ = run(capsys, "export", "--onnx", out_dir, "--method", "d3dwa-pa", "--policy", ".")
+    assert code == 0 and files_under(out_dir) == ["d3dwa-pa/best.onnx"]
     # a progress policy exported for a paper method does not fit it
     line = refused(capsys, "export", "--onnx", out_dir, "--method", "d3dwa", "--policy", ckpt)
     assert "'progress' observation" in line and "method 'd3dwa'" in line

@@ -21,7 +21,7 @@ from d3dwa_bullet.learning.agents import onnx_export, onnx_policy
 from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint, read_meta, save_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.onnx_export import export_onnx, q_values, sample_observations
-from d3dwa_bullet.learning.agents.onnx_policy import METADATA_KEYS, load_onnx_policy
+from d3dwa_bullet.learning.agents.onnx_policy import METADATA_KEYS, load_onnx_policy, onnx_metadata
 from d3dwa_bullet.learning.agents.policy import load_policy
 from d3dwa_bullet.limits import Limit
 from d3dwa_bullet.methods import LEARNED, ONNX_METHODS, default_policy_path, make_controller
@@ -107,6 +107,10 @@ def test_metadata_describes_the_source_checkpoint(exported) -> None:
     assert json.loads(props[METADATA_KEYS["actions"]]) == ACTIONS_FULL.to_dict()
     assert props[METADATA_KEYS["observation_kind"]] == "paper"
     assert props[METADATA_KEYS["obs_dim"]] == "12"
+    assert source["checkpoint"] == "policies/d3dwa/seed-0"  # not this machine's install path
+    described = onnx_metadata(file)
+    assert described["method"] == "d3dwa" and described["source"] == source
+    assert described["actions"] == ACTIONS_FULL and described["observation"]["kind"] == "paper"
 
 
 def test_export_is_deterministic(exported, tmp_path: Path) -> None:
@@ -127,7 +131,7 @@ def test_progress_network_round_trips(tmp_path: Path, hidden: tuple[int, ...]) -
     agent, _ = load_checkpoint(ckpt, expected_layout=observation_layout("progress"))
     assert isinstance(agent, D3QNAgent)
     policy, _, meta = load_onnx_policy(result.file, expected_observation=("progress", "test"))
-    assert meta["observation"]["dim"] == 17
+    assert meta["observation"]["dim"] == 17 and meta["source"]["checkpoint"] == str(ckpt)
     obs = sample_observations(agent.obs_layout, 2_000, seed=3)
     q_torch = q_values(agent.online, obs)
     assert np.abs(policy.q_values(obs) - q_torch).max() <= REL_Q * max(1.0, np.abs(q_torch).max())
@@ -239,6 +243,9 @@ def test_a_file_that_is_not_our_policy_is_refused(exported, tmp_path, content, s
     with pytest.raises(CheckpointError) as err:
         load_onnx_policy(bad, expected_observation=("progress", "test"))
     one_line(err, bad, says)
+    with pytest.raises(CheckpointError) as err:
+        onnx_metadata(bad)
+    one_line(err, bad, says)
 
 
 def test_missing_files_directories_and_huge_files_are_refused(exported, tmp_path, monkeypatch):
@@ -293,6 +300,7 @@ def test_agents_package_reexports_lazily() -> None:
     assert agents.export_onnx is onnx_export.export_onnx
     assert agents.load_onnx_policy is onnx_policy.load_onnx_policy
     assert agents.OnnxGreedyPolicy is onnx_policy.OnnxGreedyPolicy
+    assert agents.onnx_metadata is onnx_policy.onnx_metadata
     assert agents.D3QNAgent is D3QNAgent
     assert set(agents.__all__) <= set(dir(agents))
     with pytest.raises(AttributeError, match="no attribute 'nope'"):

@@ -23,7 +23,11 @@ if TYPE_CHECKING:
     from d3dwa_bullet.learning.agents.dqdwa import Discretisation, DQDWAAgent, DQDWAConfig
     from d3dwa_bullet.learning.agents.network import DuelingQNetwork
     from d3dwa_bullet.learning.agents.onnx_export import export_onnx
-    from d3dwa_bullet.learning.agents.onnx_policy import OnnxGreedyPolicy, load_onnx_policy
+    from d3dwa_bullet.learning.agents.onnx_policy import (
+        OnnxGreedyPolicy,
+        load_onnx_policy,
+        onnx_metadata,
+    )
     from d3dwa_bullet.learning.agents.policy import Policy, greedy_policy, load_policy
     from d3dwa_bullet.learning.agents.replay import ReplayBatch, ReplayBuffer, Transition
 
@@ -39,6 +43,7 @@ _HOMES = {
     "export_onnx": "d3dwa_bullet.learning.agents.onnx_export",
     "OnnxGreedyPolicy": "d3dwa_bullet.learning.agents.onnx_policy",
     "load_onnx_policy": "d3dwa_bullet.learning.agents.onnx_policy",
+    "onnx_metadata": "d3dwa_bullet.learning.agents.onnx_policy",
     "Policy": "d3dwa_bullet.learning.agents.policy",
     "greedy_policy": "d3dwa_bullet.learning.agents.policy",
     "load_policy": "d3dwa_bullet.learning.agents.policy",
@@ -65,6 +70,7 @@ __all__ = [
     "load_checkpoint",
     "load_onnx_policy",
     "load_policy",
+    "onnx_metadata",
     "save_checkpoint",
 ]
 

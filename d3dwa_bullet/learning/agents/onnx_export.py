@@ -34,7 +34,7 @@ import torch
 from torch import nn
 
 from d3dwa_bullet import __version__
-from d3dwa_bullet.errors import CheckpointError
+from d3dwa_bullet.errors import CheckpointError, InstallError
 from d3dwa_bullet.io import atomic_write_bytes
 from d3dwa_bullet.learning.agents.checkpoint import WEIGHTS_FILE, load_checkpoint, read_meta
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
@@ -49,6 +49,7 @@ from d3dwa_bullet.learning.agents.onnx_policy import (
 )
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.progress import kind_of_layout, observation_layout
+from d3dwa_bullet.resources import policies_dir
 
 OPSET = 17
 """ONNX operator set of exported graphs (ReduceMean still takes its axes as an attribute)."""
@@ -247,7 +248,7 @@ def _source(root: Path, meta: dict[str, Any]) -> dict[str, Any]:
     extra = extra if isinstance(extra, dict) else {}
     weights = meta["files"].get(WEIGHTS_FILE, {})
     return {
-        "checkpoint": str(root),
+        "checkpoint": _shown(root),
         "checkpoint_format_version": meta["format_version"],
         "method": meta["method"],
         "package_version": meta.get("package_version"),
@@ -261,6 +262,15 @@ def _source(root: Path, meta: dict[str, Any]) -> dict[str, Any]:
         "run": extra.get("run"),
         "selected": extra.get("selected"),
     }
+
+
+def _shown(root: Path) -> str:
+    """The checkpoint's path as the file records it: ``policies/<method>/seed-<k>`` for a
+    shipped one (not where this machine installed it), else as given."""
+    try:
+        return f"policies/{root.resolve().relative_to(policies_dir().resolve()).as_posix()}"
+    except (ValueError, InstallError):
+        return str(root)
 
 
 def _onnx(what: str) -> Any:

@@ -177,6 +177,18 @@ def load_onnx_policy(
     )
 
 
+def onnx_metadata(file: str | os.PathLike[str]) -> dict[str, Any]:
+    """What an exported file says about itself (``read_metadata``'s dict plus ``file``),
+    checked as ``load_onnx_policy`` checks it but against no method: for a caller that
+    takes the method from the file (``meta["method"]``) before loading it for that method."""
+    path = Path(file)
+    session = _session(read_model_bytes(path), str(path))
+    meta = read_metadata(session.get_modelmeta().custom_metadata_map, str(path))
+    _check_signature(session, meta["observation"]["dim"], meta["actions"].size, str(path))
+    meta["file"] = str(path)
+    return meta
+
+
 def read_model_bytes(path: Path) -> bytes:
     """The bytes of a model file; CheckpointError if it is missing, not a regular file (a
     FIFO would block) or over MAX_POLICY_BYTES."""
