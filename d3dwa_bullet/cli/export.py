@@ -56,8 +56,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def cmd_export(args: argparse.Namespace) -> int:
     # start-up cost: the exporter imports torch and onnx, the method registry the planner
     # (numba), none of which `d3dwa --help` needs
-    from d3dwa_bullet.learning.agents.checkpoint import read_meta
-    from d3dwa_bullet.learning.agents.onnx_export import export_onnx
+    from d3dwa_bullet.learning.agents.onnx_export import check_exportable, export_onnx
     from d3dwa_bullet.methods import LEARNED, method_observation
 
     methods = _methods(args.method, args.policy)
@@ -65,12 +64,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     jobs: list[tuple[str, Path, Path]] = []
     for method in methods:
         for source in _sources(method, args.policy, args.seeds, explicit=args.method is not None):
-            meta = read_meta(source)  # a tabular or broken checkpoint stops before any write
-            if meta["agent"] != "d3qn":
-                raise CheckpointError(
-                    f"{source}: a {meta['agent']} policy ({meta['method']}) is not a network; "
-                    f"only D3QN policies export to ONNX"
-                )
+            check_exportable(source)  # a tabular or broken one stops before any write
             name = file_stem(source.resolve().name)  # "." names the directory it is
             jobs.append((method, source, out / method / f"{name}{ONNX_SUFFIX}"))
     if not jobs:

@@ -84,7 +84,7 @@ def test_export_a_trained_progress_checkpoint(capsys, tmp_path: Path, monkeypatc
         (["--method", "d3dwa", "--seeds", "x"], "--seeds: 'x'"),
         (["--method", "d3dwa", "--policy", "{tmp}/empty"], "holds no checkpoint"),
         (["--method", "d3dwa", "--policy", "{tmp}/nowhere"], "does not exist"),
-        (["--method", "d3dwa", "--policy", "{dqdwa}"], "is not a network"),
+        (["--method", "d3dwa", "--policy", "{dqdwa}"], "a tabular policy (dqdwa) is a Q-table"),
         (["--method", "d3dwa", "--policy", "{d3dwa0}", "--seeds", "0"], "is one checkpoint"),
         (["--method", "d3dwa-weights", "--policy", "{d3dwa0}"], "action set"),
     ],

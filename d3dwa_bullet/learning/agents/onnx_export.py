@@ -176,12 +176,7 @@ def export_onnx(
     _onnx(str(root))  # the extra is there before any work is done
     if out.is_dir():
         raise CheckpointError(f"{out}: is a directory; give the .onnx file to write")
-    meta = read_meta(root)
-    if meta["agent"] != "d3qn":
-        raise CheckpointError(
-            f"{root}: a {meta['agent']} policy ({meta['method']}) is a Q-table over a "
-            "discretised state, not a network; only D3QN policies export to ONNX"
-        )
+    check_exportable(root)
     kind, reader = expected_observation or (None, "the caller")
     agent, meta = load_checkpoint(
         root,
@@ -218,6 +213,17 @@ def export_onnx(
         agreement,
         CHECK_OBSERVATIONS,
     )
+
+
+def check_exportable(policy_dir: str | os.PathLike[str]) -> None:
+    """CheckpointError unless ``policy_dir`` holds a checkpoint (its meta.json, read
+    without loading the weights) of a network: a tabular (dqdwa) one is refused."""
+    meta = read_meta(policy_dir)
+    if meta["agent"] != "d3qn":
+        raise CheckpointError(
+            f"{policy_dir}: a tabular policy ({meta['method']}) is a Q-table over a "
+            "discretised state, not a network; only D3QN policies export to ONNX"
+        )
 
 
 def _check(
