@@ -43,6 +43,9 @@ OBSERVATIONS: dict[str, str] = {"d3dwa-pa": "progress", "d3dwa-pa-dr": "progress
 #: Learned methods whose policy is a network, so exports to ONNX (dqdwa's is a Q-table).
 ONNX_METHODS = tuple(m for m in LEARNED if m != "dqdwa")
 METHODS = tuple(FIXED) + tuple(LEARNED)
+#: Methods beyond the paper (SPEC sections 4 and 6): they sit beside the paper's methods and
+#: never change the paper's track, so the main job and its tables leave them out unless named.
+BEYOND_PAPER = frozenset({"d3dwa-pa", "d3dwa-pa-dr"})
 LABELS = {
     "dwa1": "DWA I (1,1,2)",
     "dwa2": "DWA II (1,2,1)",

@@ -24,6 +24,7 @@ from collections.abc import Callable, Sequence
 from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, WorldFormatError
 from d3dwa_bullet.limits import MAX_CONTROL_HZ, MAX_PHYSICS_HZ, MAX_TIME_LIMIT_S, check_processes
+from d3dwa_bullet.methods import BEYOND_PAPER, FIXED, LEARNED, default_policy_path
 from d3dwa_bullet.params import RECOVERY_KINDS, PlannerParams, SimParams, recovery_params
 from d3dwa_bullet.world.model import World, goal_in_obstacle, start_in_collision
 from d3dwa_bullet.world.registry import load_world, world_file_kind
@@ -264,8 +265,8 @@ def workers_arg(args: argparse.Namespace) -> int:
 
 
 def default_methods() -> list[str]:
-    """Fixed baselines plus every learned method whose shipped policy exists."""
-    # start-up cost: d3dwa_bullet.methods imports numba (the planner), ~0.15 s
-    from d3dwa_bullet.methods import FIXED, LEARNED, default_policy_path
-
-    return list(FIXED) + [m for m in LEARNED if default_policy_path(m).exists()]
+    """The paper's track: fixed baselines plus every learned method of the paper whose shipped
+    policy exists (methods beyond the paper run when named with --methods)."""
+    return list(FIXED) + [
+        m for m in LEARNED if m not in BEYOND_PAPER and default_policy_path(m).exists()
+    ]

@@ -107,6 +107,10 @@ def test_a_recorded_d3dwa_pa_episode_replays_bit_for_bit(pa_policy, tmp_path):
     assert "obs_stalled" in header and "obs_prev_tau" in header
 
 
-def test_the_main_jobs_default_methods_leave_out_methods_without_a_policy() -> None:
-    for method in ("d3dwa-pa", "d3dwa-pa-dr"):
-        assert (method in default_methods()) == default_policy_path(method).exists()
+def test_the_main_jobs_default_methods_are_the_papers_with_a_shipped_policy() -> None:
+    methods = default_methods()
+    assert methods[:3] == ["dwa1", "dwa2", "dwa3"]
+    for method in ("d3dwa-pa", "d3dwa-pa-dr"):  # beyond the paper: only when named
+        assert method not in methods
+    for method in ("dqdwa", "d3dwa-weights", "d3dwa", "d3dwa-dr"):
+        assert (method in methods) == default_policy_path(method).exists()

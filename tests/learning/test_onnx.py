@@ -24,11 +24,17 @@ from d3dwa_bullet.learning.agents.onnx_export import export_onnx, q_values, samp
 from d3dwa_bullet.learning.agents.onnx_policy import METADATA_KEYS, load_onnx_policy, onnx_metadata
 from d3dwa_bullet.learning.agents.policy import load_policy
 from d3dwa_bullet.limits import Limit
-from d3dwa_bullet.methods import LEARNED, ONNX_METHODS, default_policy_path, make_controller
+from d3dwa_bullet.methods import (
+    LEARNED,
+    ONNX_METHODS,
+    default_policy_path,
+    make_controller,
+    method_observation,
+)
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
 from d3dwa_bullet.planning.progress import observation_layout
 from d3dwa_bullet.seed_dirs import seed_dirs
-from tests.learning.test_shipped_policies import GOLDEN_ACTIONS, OBSERVATIONS
+from tests.learning.test_shipped_policies import GOLDEN_ACTIONS, OBSERVATIONS, observations_for
 
 SHIPPED = {m: seed_dirs(default_policy_path(m)) for m in ONNX_METHODS}
 SHIPPED_SEEDS = [(m, k) for m, seeds in SHIPPED.items() for k in seeds]
@@ -70,11 +76,16 @@ def test_shipped_network_methods_are_there_to_test() -> None:
 @pytest.mark.parametrize("method", sorted({m for m, _ in SHIPPED_SEEDS}))
 def test_seed0_matches_torch_and_numpy_on_random_observations(exported, method: str) -> None:
     path = SHIPPED[method][0]
-    agent, _ = load_checkpoint(path, expected_actions=LEARNED[method])
+    kind = (method_observation(method), method)
+    agent, _ = load_checkpoint(
+        path, expected_actions=LEARNED[method], expected_layout=observation_layout(kind[0])
+    )
     assert isinstance(agent, D3QNAgent)
-    numpy_policy, _, _ = load_policy(path, expected_actions=LEARNED[method])
+    numpy_policy, _, _ = load_policy(
+        path, expected_actions=LEARNED[method], expected_observation=kind
+    )
     policy, actions, meta = load_onnx_policy(
-        exported[(method, 0)], expected_actions=LEARNED[method]
+        exported[(method, 0)], expected_actions=LEARNED[method], expected_observation=kind
     )
     assert actions == LEARNED[method] and meta["method"] == method
     obs = sample_observations(agent.obs_layout, N_RANDOM, seed=2026)
@@ -90,10 +101,14 @@ def test_seed0_matches_torch_and_numpy_on_random_observations(exported, method: 
 
 @pytest.mark.parametrize(("method", "seed"), SHIPPED_SEEDS)
 def test_shipped_seed_chooses_the_golden_actions(exported, method: str, seed: int) -> None:
-    policy, _, _ = load_onnx_policy(exported[(method, seed)], expected_actions=LEARNED[method])
-    assert [policy(o) for o in OBSERVATIONS] == GOLDEN_ACTIONS[method][seed]
+    policy, _, _ = load_onnx_policy(
+        exported[(method, seed)],
+        expected_actions=LEARNED[method],
+        expected_observation=(method_observation(method), method),
+    )
+    assert [policy(o) for o in observations_for(method)] == GOLDEN_ACTIONS[method][seed]
     controller = make_controller(method, onnx=exported[(method, seed)])
-    assert [controller(o)[0] for o in OBSERVATIONS] == GOLDEN_ACTIONS[method][seed]
+    assert [controller(o)[0] for o in observations_for(method)] == GOLDEN_ACTIONS[method][seed]
 
 
 def test_metadata_describes_the_source_checkpoint(exported) -> None:

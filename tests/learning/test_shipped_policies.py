@@ -13,15 +13,15 @@ import pytest
 from d3dwa_bullet.evaluation.policy_runs import check_one_experiment
 from d3dwa_bullet.learning.agents.policy import load_policy
 from d3dwa_bullet.learning.training import load_train_config
-from d3dwa_bullet.methods import LEARNED, default_policy_path, make_controller
+from d3dwa_bullet.methods import LEARNED, default_policy_path, make_controller, method_observation
 from d3dwa_bullet.seed_dirs import seed_dirs
 
 MIN_SEEDS = 5
 """The learning protocol's minimum (docs/design.md#learning-protocol)."""
-SHORT_OF_TARGET: dict[str, int] = {"d3dwa-pa": 0, "d3dwa-pa-dr": 0}
+SHORT_OF_TARGET: dict[str, int] = {"d3dwa-pa": 1, "d3dwa-pa-dr": 0}
 """Methods whose remaining seeds are still training (resumable with --resume), with the
 number shipped so far; empty once every method has MIN_SEEDS. The progress-aware methods
-(beyond the paper) have their committed configs and no seed yet."""
+(beyond the paper) ship each seed as it finishes training."""
 
 OBSERVATIONS = np.array(
     [
@@ -34,6 +34,27 @@ OBSERVATIONS = np.array(
     ]
 )
 """Fixed observations [d_g, theta_g, v, w, l_1..l_8]."""
+
+PROGRESS_ENTRIES = np.array(
+    [
+        [0.0, 0.0, 0.0, 0.0, 0.0],  # the first step: no previous action yet
+        [0.05, 1 / 3, 2 / 3, 1 / 3, 0.8],
+        [0.6, 1 / 3, 1 / 3, 1 / 3, 0.4],
+        [1.0, 1.0, 1 / 3, 2 / 3, 1.0],  # stalled a whole window
+        [0.3, 2 / 3, 1 / 3, 1.0, 0.6],
+        [0.9, 1 / 3, 1.0, 1 / 3, 0.8],
+    ]
+)
+"""[stalled, prev_wp, prev_wc, prev_ws, prev_tau] appended to OBSERVATIONS for the methods
+that read the progress observation (docs/design.md#progress-observation)."""
+
+
+def observations_for(method: str) -> np.ndarray:
+    """OBSERVATIONS in the observation kind the method's policy reads, (6, 12) or (6, 17)."""
+    if method_observation(method) == "progress":
+        return np.hstack([OBSERVATIONS, PROGRESS_ENTRIES])
+    return OBSERVATIONS
+
 
 GOLDEN_ACTIONS = {
     "dqdwa": {
@@ -64,6 +85,10 @@ GOLDEN_ACTIONS = {
         3: [42, 93, 40, 9, 42, 95],
         4: [67, 47, 0, 47, 17, 37],
     },
+    "d3dwa-pa": {
+        0: [35, 62, 13, 20, 36, 32],
+    },
+    "d3dwa-pa-dr": {},
 }
 """Greedy action index of each shipped seed for each of OBSERVATIONS, recorded from the
 weights in policies/. After shipping new seeds on purpose, regenerate them with
@@ -75,8 +100,12 @@ SEEDS = [(m, k) for m in LEARNED for k in seed_dirs(default_policy_path(m))]
 def greedy_actions(method: str, seed: int) -> list[int]:
     """The shipped seed's greedy action index for each of OBSERVATIONS."""
     path = seed_dirs(default_policy_path(method))[seed]
-    policy, _, _ = load_policy(path, expected_actions=LEARNED[method])
-    return [int(policy(obs)) for obs in OBSERVATIONS]
+    policy, _, _ = load_policy(
+        path,
+        expected_actions=LEARNED[method],
+        expected_observation=(method_observation(method), method),
+    )
+    return [int(policy(obs)) for obs in observations_for(method)]
 
 
 @pytest.mark.parametrize("method", list(LEARNED))
@@ -94,7 +123,11 @@ def test_every_learned_method_ships_its_seeds_of_one_experiment(method: str) -> 
 @pytest.mark.parametrize(("method", "seed"), SEEDS)
 def test_shipped_seed_loads_with_its_action_set_and_travels_with_its_run(method, seed):
     path = seed_dirs(default_policy_path(method))[seed]
-    policy, actions, meta = load_policy(path, expected_actions=LEARNED[method])
+    policy, actions, meta = load_policy(
+        path,
+        expected_actions=LEARNED[method],
+        expected_observation=(method_observation(method), method),
+    )
     assert meta["method"] == method and actions.size == LEARNED[method].size
     assert meta["agent"] == ("dqdwa" if method == "dqdwa" else "d3qn")
     names = {p.name for p in path.iterdir()}
@@ -105,8 +138,7 @@ def test_shipped_seed_loads_with_its_action_set_and_travels_with_its_run(method,
     summary = json.loads((path / "summary.json").read_text())
     assert summary["status"] == "done" and summary["env_steps"] >= config.total_steps
     assert set(json.loads((path / "meta.json").read_text())["files"]) <= names
-    obs = np.array([0.5, 0.1, 0.2, 0.0] + [0.6] * 8)
-    assert 0 <= policy(obs) < actions.size
+    assert 0 <= policy(observations_for(method)[0]) < actions.size
 
 
 @pytest.mark.parametrize(("method", "seed"), SEEDS)
@@ -115,7 +147,7 @@ def test_shipped_seed_chooses_the_recorded_actions(method: str, seed: int) -> No
     assert greedy_actions(method, seed) == GOLDEN_ACTIONS[method][seed]
     path = seed_dirs(default_policy_path(method))[seed]
     controller = make_controller(method, path)  # what evaluation runs: the same weights
-    assert [controller(obs)[0] for obs in OBSERVATIONS] == GOLDEN_ACTIONS[method][seed]
+    assert [controller(obs)[0] for obs in observations_for(method)] == GOLDEN_ACTIONS[method][seed]
 
 
 if __name__ == "__main__":
