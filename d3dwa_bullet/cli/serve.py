@@ -60,5 +60,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
         pass
     server.stop(grace=0.5).wait()
     servicer.close()
-    print(f"stopped after {len(servicer.received)} velocity commands", flush=True)
+    last = servicer.requests[-1] if servicer.requests else None
+    said = f"; the last asked for v {last[0]:g} m/s, w {last[1]:g} rad/s" if last else ""
+    print(f"stopped after {len(servicer.received)} velocity commands{said}", flush=True)
     return 0

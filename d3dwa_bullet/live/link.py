@@ -205,9 +205,10 @@ class KachakaLink:
 
     def stop(self) -> bool:
         """``set_robot_stop``: zero velocity, then manual control off. True if the robot
-        acknowledged the zero velocity; never raises (a lost robot returns False)."""
+        answered (a robot that refuses the zero velocity has manual control off: nothing
+        drives it); never raises (a lost robot returns False)."""
         try:
-            result = self.stub.SetRobotVelocity(
+            self.stub.SetRobotVelocity(
                 velocity_request(0.0, 0.0), timeout=self.timeout,
                 metadata=command_metadata(0.0, 0.0),
             )  # fmt: skip
@@ -219,7 +220,7 @@ class KachakaLink:
             )
         except grpc.RpcError:
             pass
-        return bool(result.result.success)
+        return True
 
     def close(self) -> None:
         self.channel.close()

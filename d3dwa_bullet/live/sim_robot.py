@@ -107,6 +107,8 @@ class SimulatedKachaka(KachakaApiServicer):
         """Ground-truth base_link pose at each snapshot."""
         self.received: list[tuple[float, float]] = []
         """Every velocity command accepted, (v, w) as decoded."""
+        self.requests: list[tuple[float, float, bool]] = []
+        """Every SetRobotVelocity call: (v, w, accepted); a refused one too."""
         self.manual_control = False
         self._latest: tuple[float, float, float] = (0.0, 0.0, -math.inf)  # v, w, monotonic s
         self._snapshot()
@@ -242,10 +244,11 @@ class SimulatedKachaka(KachakaApiServicer):
         return pb2.GetManualControlEnabledResponse(enabled=self.manual_control)
 
     def SetRobotVelocity(self, request, context):  # noqa: N802
-        if not self.manual_control:
-            return pb2.SetRobotVelocityResponse(result=pb2.Result(success=False))
         v, w = command_of(request, context.invocation_metadata())
         with self._cond:
+            self.requests.append((v, w, self.manual_control))
+            if not self.manual_control:
+                return pb2.SetRobotVelocityResponse(result=pb2.Result(success=False))
             self.received.append((v, w))
             if self.mode == "lockstep":
                 self._step(v, w)

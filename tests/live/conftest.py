@@ -1,0 +1,32 @@
+"""A simulated Kachaka served in-process on a free port, for the live loop's tests."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+
+import pytest
+
+pytest.importorskip("kachaka_api", reason="the robot extra is not installed")
+
+from d3dwa_bullet.live import SimulatedKachaka, start_server  # noqa: E402
+from d3dwa_bullet.world.model import World  # noqa: E402
+
+Serve = Callable[..., tuple[SimulatedKachaka, str]]
+
+
+@pytest.fixture
+def serve() -> Iterator[Serve]:
+    """serve(world, **SimulatedKachaka options) -> (servicer, "127.0.0.1:PORT"); every
+    server started is stopped and its simulator closed after the test."""
+    started = []
+
+    def start(world: World, **options) -> tuple[SimulatedKachaka, str]:
+        servicer = SimulatedKachaka(world, **options)
+        server, port = start_server(servicer, 0)
+        started.append((server, servicer))
+        return servicer, f"127.0.0.1:{port}"
+
+    yield start
+    for server, servicer in started:
+        server.stop(None).wait()
+        servicer.close()

@@ -1,0 +1,81 @@
+"""``d3dwa drive`` against ``d3dwa serve --lockstep`` is ``d3dwa run``: same outcome, steps and
+path, and the very same commands, bit for bit (docs/design.md#live).
+
+The clamp is set to the simulator's own limits (``--speed-limit 0.4,2.0``): with Kachaka's API
+limits (0.3 m/s) the clamp would change the commands ``run`` sends, which is what it is for.
+Deadlines and the watchdog are generous: a loaded test machine must not stop a run.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("kachaka_api", reason="the robot extra is not installed")
+
+from d3dwa_bullet.episode import run_episode  # noqa: E402
+from d3dwa_bullet.evaluation.jobs import make_noise  # noqa: E402
+from d3dwa_bullet.methods import make_controller  # noqa: E402
+from d3dwa_bullet.world.registry import load_world  # noqa: E402
+from tests.support.cli import run  # noqa: E402
+
+PATIENT = ("--lockstep", "--watchdog", "60", "--timeout", "30", "--speed-limit", "0.4,2.0")
+
+
+def drive_json(capsys, address, goal, method, *extra) -> dict:
+    code, out, err = run(
+        capsys, "drive", "--kachaka", address, "--goal", f"{goal[0]},{goal[1]}",
+        "--method", method, "--json", *PATIENT, *extra,
+    )  # fmt: skip
+    assert code == 0, err
+    return json.loads(out)
+
+
+@pytest.mark.parametrize("method", ["dwa3", "d3dwa"])
+def test_lockstep_drive_is_the_run_episode(capsys, serve, method):
+    world = load_world("R1")
+    sim, address = serve(world, mode="lockstep")
+    live = drive_json(capsys, address, world.goal, method)
+    episode = run_episode(world, make_controller(method))
+    row = episode.summary()
+    for key in ("outcome", "steps", "time_s", "tl_m", "pd_rad"):
+        assert live[key] == row[key], key
+    sent = np.asarray(sim.received[: live["steps"]])
+    np.testing.assert_array_equal(
+        sent, np.column_stack((episode.log["v_cmd"], episode.log["w_cmd"]))
+    )
+    assert sim.received[-1] == (0.0, 0.0) and live["stop_acknowledged"]  # the stop came last
+    truth = np.asarray(sim.truth[: live["steps"] + 1])
+    np.testing.assert_array_equal(truth[:, 0], episode.log["true_x"])
+
+
+def test_noisy_lockstep_drive_sends_the_run_commands(capsys, serve):
+    """With noise the robot's odometry is the EKF estimate: drive judges the goal on it,
+    ``run`` on ground truth, so the two may end at different steps; every command both sent
+    is the same."""
+    world = load_world("R1")
+    sim, address = serve(world, mode="lockstep", noise=make_noise("real", 0))
+    live = drive_json(capsys, address, world.goal, "dwa3")
+    episode = run_episode(
+        world, make_controller("dwa3"), noise=make_noise("real", 0), noise_name="real"
+    )
+    n = min(live["steps"], episode.steps)
+    assert n > 100 and live["outcome"] == episode.outcome == "goal"
+    sent = np.asarray(sim.received[:n])
+    logged = np.column_stack((episode.log["v_cmd"], episode.log["w_cmd"]))[:n]
+    np.testing.assert_array_equal(sent, logged)
+
+
+def test_default_clamp_holds_commands_to_kachaka_limits(capsys, serve):
+    world = load_world("R1")
+    sim, address = serve(world, mode="lockstep")
+    code, out, err = run(
+        capsys, "drive", "--kachaka", address, "--goal", "3,0", "--method", "dwa3", "--json",
+        "--lockstep", "--watchdog", "60", "--timeout", "30", "--time-limit", "5",
+    )  # fmt: skip
+    assert code == 0, err
+    sent = np.asarray(sim.received)
+    assert np.abs(sent[:, 0]).max() <= 0.3 and np.abs(sent[:, 1]).max() <= 1.57
+    assert np.isclose(np.abs(sent[:, 0]).max(), 0.3)  # the planner asked for more: clamped
