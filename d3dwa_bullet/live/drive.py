@@ -16,6 +16,7 @@ the watchdog) ends in ``set_robot_stop``.
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -28,7 +29,7 @@ from d3dwa_bullet.errors import ConfigError, ScanError
 from d3dwa_bullet.evaluation.metrics import posture_displacement, trajectory_length
 from d3dwa_bullet.geometry import body_clearance_to_points, wrap_angle
 from d3dwa_bullet.live.link import KachakaLink, Reading
-from d3dwa_bullet.live.safety import Freshness, SpeedLimits, Watchdog
+from d3dwa_bullet.live.safety import Freshness, SpeedLimits, Watchdog, deferred_interrupts
 from d3dwa_bullet.planning.observation import sector_ranges
 from d3dwa_bullet.planning.planner import PlannerAction
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D, scan_points_body
@@ -181,6 +182,28 @@ def drive(
     that raises did). RobotLinkError on a lost, late or stale robot; the exception of any
     other failure, after the stop.
     """
+    out = result if result is not None else DriveResult()
+    watchdog = Watchdog(settings.watchdog_s, link.stop)
+    with deferred_interrupts() as interrupted:
+        try:
+            _loop(link, pipeline, settings, out, watchdog, interrupted, on_step, on_progress)
+        finally:
+            watchdog.close()
+            out.stopped = link.stop()
+    return out
+
+
+def _loop(
+    link: KachakaLink,
+    pipeline: ReplayPipeline,
+    settings: DriveSettings,
+    out: DriveResult,
+    watchdog: Watchdog,
+    interrupted: threading.Event,
+    on_step: StepHook | None,
+    on_progress: ProgressHook | None,
+) -> None:
+    """The checks, then steps until the episode ends (``out.outcome``) or an error raises."""
     config = pipeline.config
     period = config.sim.control_period
     term = config.termination
@@ -188,55 +211,50 @@ def drive(
     goal = np.asarray(settings.goal, dtype=np.float64)
     max_steps = int(round(settings.time_limit * config.sim.control_hz))
     fresh = Freshness(settings.stale_s if settings.stale_s is not None else 2 * period)
-    out = result if result is not None else DriveResult()
-    watchdog = Watchdog(settings.watchdog_s, link.stop)
-    try:
-        link.check_version()
-        first = link.read()
-        check_scan_layout(first.scan, mount, config)
-        check_goal_on_map(link, settings.goal, first.odometry)
-        watchdog.start()
-        deadline = time.monotonic()
-        reading: Reading | None = first
-        while True:
-            started = time.perf_counter()
-            if reading is None:
-                reading = link.read()
-            stamps = {"scan": reading.scan.stamp_ns, "odometry": reading.odometry.stamp_ns}
-            fresh.check(stamps, time.monotonic(), link.address)
-            pose = reading.odometry.pose
-            out.poses.append(pose)
-            points = scan_points_body(reading.scan, mount)
-            valid = reading.scan.ranges[reading.scan.valid_mask()]
-            out.clearance = min(out.clearance, body_clearance_to_points(points))
-            distance = math.hypot(goal[0] - pose[0], goal[1] - pose[1])
-            if valid.size and valid.min() < term.collision_distance:
-                out.outcome = "collision"
-            elif distance <= term.goal_tolerance:
-                out.outcome = "goal"
-            elif out.steps >= max_steps:
-                out.outcome = "timeout"
-            if out.outcome is not None:
-                return out
-            decided = _decide(pipeline, reading, mount, goal)
-            assert decided.cmd is not None
-            command = settings.limits.clamp(*decided.cmd)
-            watchdog.send(link.command, *command)
-            out.steps += 1
-            out.commands.append(command)
-            latency = time.perf_counter() - started
-            out.latencies.append(latency)
-            watchdog.beat()
-            if on_step is not None:
-                on_step(reading, decided, command)
-            if on_progress is not None:
-                on_progress(out.steps, distance, command, latency)
-            reading = None
-            if not settings.lockstep:
-                deadline = _pace(deadline, period)
-    finally:
-        watchdog.close()
-        out.stopped = link.stop()
+    link.check_version()
+    first = link.read()
+    check_scan_layout(first.scan, mount, config)
+    check_goal_on_map(link, settings.goal, first.odometry)
+    watchdog.start()
+    deadline = time.monotonic()
+    reading: Reading | None = first
+    while not interrupted.is_set():
+        started = time.perf_counter()
+        if reading is None:
+            reading = link.read()
+        stamps = {"scan": reading.scan.stamp_ns, "odometry": reading.odometry.stamp_ns}
+        fresh.check(stamps, time.monotonic(), link.address)
+        pose = reading.odometry.pose
+        out.poses.append(pose)
+        points = scan_points_body(reading.scan, mount)
+        valid = reading.scan.ranges[reading.scan.valid_mask()]
+        out.clearance = min(out.clearance, body_clearance_to_points(points))
+        distance = math.hypot(goal[0] - pose[0], goal[1] - pose[1])
+        if valid.size and valid.min() < term.collision_distance:
+            out.outcome = "collision"
+        elif distance <= term.goal_tolerance:
+            out.outcome = "goal"
+        elif out.steps >= max_steps:
+            out.outcome = "timeout"
+        if out.outcome is not None:
+            return
+        decided = _decide(pipeline, reading, mount, goal)
+        assert decided.cmd is not None
+        command = settings.limits.clamp(*decided.cmd)
+        watchdog.send(link.command, *command)
+        out.steps += 1
+        out.commands.append(command)
+        latency = time.perf_counter() - started
+        out.latencies.append(latency)
+        watchdog.beat()
+        if on_step is not None:
+            on_step(reading, decided, command)
+        if on_progress is not None:
+            on_progress(out.steps, distance, command, latency)
+        reading = None
+        if not settings.lockstep:
+            deadline = _pace(deadline, period, interrupted)
+    raise KeyboardInterrupt
 
 
 def _decide(pipeline: ReplayPipeline, reading: Reading, mount: Pose2D, goal: np.ndarray):
@@ -258,11 +276,12 @@ def _decide(pipeline: ReplayPipeline, reading: Reading, mount: Pose2D, goal: np.
         raise ScanError(f"cannot decide at stamp {step.t_ns} ns: {err.reason}") from err
 
 
-def _pace(deadline: float, period: float) -> float:
-    """Sleep until the next control tick; a late loop restarts its ticks from now."""
+def _pace(deadline: float, period: float, interrupted: threading.Event) -> float:
+    """Sleep until the next control tick (or an interrupt); a late loop restarts its ticks
+    from now."""
     deadline += period
     delay = deadline - time.monotonic()
     if delay > 0:
-        time.sleep(delay)
+        interrupted.wait(delay)
         return deadline
     return time.monotonic()

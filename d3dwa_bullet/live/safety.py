@@ -8,10 +8,12 @@ end where every exit ends: in ``set_robot_stop``.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import signal
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 from d3dwa_bullet.errors import ConfigError, RobotLinkError
@@ -134,3 +136,27 @@ class Watchdog:
         self._done.set()
         if self._thread.is_alive():
             self._thread.join(timeout=5.0)
+
+
+@contextlib.contextmanager
+def deferred_interrupts() -> Iterator[threading.Event]:
+    """Ctrl-C (SIGINT) and SIGTERM set the yielded event instead of raising wherever the
+    loop happens to be, so the loop ends at a step boundary: never between a command and its
+    record. A second signal raises KeyboardInterrupt at once (the loop's ``finally`` still
+    stops the robot). Outside the main thread, signals stay as they are."""
+    event = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield event
+        return
+
+    def defer(signum: int, frame: object) -> None:
+        if event.is_set():
+            raise KeyboardInterrupt
+        event.set()
+
+    previous = {sig: signal.signal(sig, defer) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield event
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
