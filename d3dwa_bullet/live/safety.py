@@ -46,10 +46,10 @@ class Freshness:
     """Refuses readings older than ``limit_s`` (two control periods by default).
 
     A stream is stale when its stamp has not advanced for ``limit_s`` of this machine's
-    monotonic clock, or when it lags the scan by more than ``limit_s`` on the robot's own
-    clock (one stream stopped while the other runs). The robot's clock is never compared
-    with this machine's: they need not be synchronised, and a lockstep simulator's clock
-    does not follow the wall at all.
+    monotonic clock, or when it lags the newest stream by more than ``limit_s`` on the
+    robot's own clock (one stream stopped while another runs). The robot's clock is never
+    compared with this machine's: they need not be synchronised, and a lockstep simulator's
+    clock does not follow the wall at all.
     """
 
     def __init__(self, limit_s: float) -> None:
@@ -59,10 +59,10 @@ class Freshness:
         self._last: dict[str, tuple[int, float]] = {}  # stream -> (stamp ns, when it changed)
 
     def check(self, stamps: dict[str, int], now: float, where: str) -> None:
-        """stamps: stream name -> its stamp (int ns, robot clock), the scan's under "scan";
-        now: monotonic s. RobotLinkError naming the stream if one is stale."""
-        limit_ns = self.limit_s * 1e9
-        scan = stamps["scan"]
+        """stamps: stream name -> its stamp (int ns, robot clock); now: monotonic s.
+        RobotLinkError naming the stream if one is stale."""
+        newest_name = max(stamps, key=stamps.__getitem__)
+        newest = stamps[newest_name]
         for name, stamp in stamps.items():
             last = self._last.get(name)
             if last is not None and stamp < last[0]:
@@ -76,10 +76,10 @@ class Freshness:
                     f"{where}: stale {name}: its stamp has not changed for "
                     f"{now - last[1]:.2f} s (limit {self.limit_s:g} s)"
                 )
-            if scan - stamp > limit_ns:
+            if newest - stamp > self.limit_s * 1e9:
                 raise RobotLinkError(
-                    f"{where}: stale {name}: {(scan - stamp) / 1e9:.2f} s older than the scan "
-                    f"(limit {self.limit_s:g} s)"
+                    f"{where}: stale {name}: {(newest - stamp) / 1e9:.2f} s older than the "
+                    f"{newest_name} (limit {self.limit_s:g} s)"
                 )
 
 

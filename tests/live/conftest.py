@@ -16,12 +16,14 @@ Serve = Callable[..., tuple[SimulatedKachaka, str]]
 
 @pytest.fixture
 def serve() -> Iterator[Serve]:
-    """serve(world, **SimulatedKachaka options) -> (servicer, "127.0.0.1:PORT"); every
-    server started is stopped and its simulator closed after the test."""
+    """serve(world, kind=SimulatedKachaka, **its options) -> (servicer, "127.0.0.1:PORT");
+    every server started is stopped and its simulator closed after the test."""
     started = []
 
-    def start(world: World, **options) -> tuple[SimulatedKachaka, str]:
-        servicer = SimulatedKachaka(world, **options)
+    def start(
+        world: World, kind: type[SimulatedKachaka] = SimulatedKachaka, **options
+    ) -> tuple[SimulatedKachaka, str]:
+        servicer = kind(world, **options)
         server, port = start_server(servicer, 0)
         started.append((server, servicer))
         return servicer, f"127.0.0.1:{port}"

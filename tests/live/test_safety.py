@@ -40,7 +40,7 @@ def test_a_stamp_that_stops_advancing_turns_stale():
     fresh.check({"scan": 100 * MS, "odometry": 100 * MS}, now=0.0, where="robot")
     fresh.check({"scan": 100 * MS, "odometry": 100 * MS}, now=0.15, where="robot")
     fresh.check({"scan": 200 * MS, "odometry": 200 * MS}, now=0.30, where="robot")
-    with pytest.raises(RobotLinkError, match="stale scan"):
+    with pytest.raises(RobotLinkError, match="stale scan: its stamp has not changed for 0.25 s"):
         fresh.check({"scan": 200 * MS, "odometry": 300 * MS}, now=0.55, where="robot")
 
 
@@ -49,6 +49,12 @@ def test_a_stream_lagging_the_scan_is_stale():
     fresh.check({"scan": 500 * MS, "odometry": 400 * MS}, now=0.0, where="robot")
     with pytest.raises(RobotLinkError, match=r"stale odometry: 0.30 s older than the scan"):
         fresh.check({"scan": 800 * MS, "odometry": 500 * MS}, now=0.1, where="robot")
+
+
+def test_a_scan_lagging_the_odometry_is_stale():
+    fresh = Freshness(0.2)
+    with pytest.raises(RobotLinkError, match=r"stale scan: 0.25 s older than the odometry"):
+        fresh.check({"scan": 500 * MS, "odometry": 750 * MS}, now=0.0, where="robot")
 
 
 def test_a_stamp_going_back_is_refused():
