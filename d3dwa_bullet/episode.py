@@ -15,21 +15,14 @@ from typing import Any
 
 import numpy as np
 
+from d3dwa_bullet.episode_config import EpisodeConfig  # re-exported: its old home
 from d3dwa_bullet.evaluation.metrics import body_clearance, posture_displacement, trajectory_length
 from d3dwa_bullet.methods import Controller
-from d3dwa_bullet.params import (
-    PROGRESS_RADIUS,
-    ObservationParams,
-    PlannerParams,
-    RecoveryParams,
-    SimParams,
-    TerminationParams,
-)
+from d3dwa_bullet.params import PROGRESS_RADIUS
 from d3dwa_bullet.planning.observation import build_observation, goal_in_body
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult, plan
 from d3dwa_bullet.planning.progress import NoProgressClock, make_observer, observation_layout
 from d3dwa_bullet.planning.recovery import Recovery, RecoveryCommand
-from d3dwa_bullet.sim.lidar import LidarParams
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.scan import LaserScan, scan_points_body
 from d3dwa_bullet.sim.simulator import Simulator
@@ -56,24 +49,6 @@ LOG_FIELDS = (
 )
 """Per-step log columns; ``recovery`` is 0 when the controller and planner drove the step,
 else the 1-based index of the recovery behaviour in ``params.RECOVERY_BEHAVIOURS``."""
-
-
-@dataclass(frozen=True)
-class EpisodeConfig:
-    """Everything an episode needs besides the world, the controller and the seed."""
-
-    sim: SimParams = field(default_factory=SimParams)
-    planner: PlannerParams = field(default_factory=PlannerParams)
-    observation: ObservationParams = field(default_factory=ObservationParams)
-    termination: TerminationParams = field(default_factory=TerminationParams)
-    lidar: LidarParams = field(default_factory=LidarParams)
-    recovery: RecoveryParams | None = None
-    """The recovery layer around the controller (beyond the paper; None = the paper's stack)."""
-
-    @property
-    def recovery_name(self) -> str:
-        """The ``--recovery`` name of this config: "none" or the recipe's kind."""
-        return "none" if self.recovery is None else self.recovery.kind
 
 
 @dataclass

@@ -13,8 +13,12 @@ from pathlib import Path
 import numpy as np
 
 from d3dwa_bullet.errors import CheckpointError, UnknownNameError
-from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
-from d3dwa_bullet.planning.planner import PlannerAction
+from d3dwa_bullet.planning.actions import (
+    ACTIONS_FULL,
+    ACTIONS_WEIGHTS_ONLY,
+    ActionSet,
+    PlannerAction,
+)
 from d3dwa_bullet.resources import policies_dir
 from d3dwa_bullet.seed_dirs import seed_dirs
 

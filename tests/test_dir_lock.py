@@ -162,3 +162,19 @@ def test_a_training_into_a_held_directory_is_refused_before_it_writes(
     line = refused(capsys, *argv[:-1], "--seeds", "0-2", "--no-progress")
     assert f"{tmp_path / held}: being written by another d3dwa command (pid {holder.pid})" in line
     assert snapshot(tmp_path / "run") == before  # not even seed-0 was started
+
+
+def test_a_report_into_a_held_directory_is_refused(tmp_path, capsys, hold):
+    out = tmp_path / "results"
+    holder = hold(out)
+    line = refused(capsys, "report", out)
+    assert f"DIR {out}: being written by another d3dwa command (pid {holder.pid})" in line
+    assert not (out / "report.md").exists()
+
+
+def test_a_replay_into_a_held_out_is_refused_before_it_reads_the_bag(tmp_path, capsys, hold):
+    out = tmp_path / "replay"
+    holder = hold(out)
+    line = refused(capsys, "replay", tmp_path / "no-such-bag", "--method", "dwa3", "--out", out)
+    assert f"--out {out}: being written by another d3dwa command (pid {holder.pid})" in line
+    assert snapshot(out) == {LOCK_FILE: snapshot(out)[LOCK_FILE]}

@@ -24,14 +24,18 @@ from d3dwa_bullet.cli.options import (
     episode_config,
     list_arg,
     load_cli_world,
+    noise_arg,
     policy_arg,
     workers_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.evaluation.backends import check_address
+from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.limits import MAX_EPISODES, MAX_SEED_VALUE, MAX_SEEDS
+from d3dwa_bullet.methods import check_method, make_controller
 from d3dwa_bullet.world.registry import world_names
 
 TABLE1_GROUPS = ("train", "unseen")
@@ -69,8 +73,24 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
-    # start-up cost: the evaluation imports the simulator (pybullet) and the planner (numba)
-    from d3dwa_bullet.evaluation.backends import check_address
+    # Counts, names and files are checked before the simulator is imported, so a refusal
+    # comes at once (evaluation.policy_runs and methods are pure).
+    check_address(args.ray)
+    workers = workers_arg(args)
+    config = episode_config(args)
+    methods = [check_method(m) for m in list_arg(args.methods, "--methods", default_methods)]
+    world_args = list_arg(args.worlds, "--worlds", lambda: world_names(*TABLE1_GROUPS))
+    policy = policy_arg(args.policy, methods)
+    if args.seeds < 1:
+        raise ConfigError(f"--seeds must be >= 1, got {args.seeds}")
+    MAX_SEEDS.check("--seeds", args.seeds, "seeds")
+    MAX_SEED_VALUE.check("--seed + --seeds - 1 (the last seed)", args.seed + args.seeds - 1)
+    seeds = list(range(args.seed, args.seed + args.seeds))
+    runs = method_runs(methods, policy, args.policy_seeds)
+    MAX_EPISODES.check("eval", len(world_args) * len(runs) * len(seeds), "episodes")
+    noise_arg(args.noise)
+    loaded = [load_cli_world(w, args.allow_empty) for w in world_args]
+    # start-up cost: the episodes import the simulator (pybullet) and the planner (numba)
     from d3dwa_bullet.evaluation.jobs import (
         Job,
         check_distinct,
@@ -79,24 +99,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
         make_noise,
         world_figures,
     )
-    from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
     from d3dwa_bullet.evaluation.report import eval_markdown, figure_seeds, seeds_markdown
-    from d3dwa_bullet.methods import check_method, make_controller
 
-    check_address(args.ray)
-    workers = workers_arg(args)
-    config = episode_config(args)
-    methods = [check_method(m) for m in list_arg(args.methods, "--methods", default_methods)]
-    world_args = list_arg(args.worlds, "--worlds", lambda: world_names(*TABLE1_GROUPS))
-    policy = policy_arg(args.policy, methods)
-    worlds, renamed = key_apart([load_cli_world(w, args.allow_empty) for w in world_args])
-    if args.seeds < 1:
-        raise ConfigError(f"--seeds must be >= 1, got {args.seeds}")
-    MAX_SEEDS.check("--seeds", args.seeds, "seeds")
-    MAX_SEED_VALUE.check("--seed + --seeds - 1 (the last seed)", args.seed + args.seeds - 1)
-    seeds = list(range(args.seed, args.seed + args.seeds))
-    runs = method_runs(methods, policy, args.policy_seeds)
-    MAX_EPISODES.check("eval", len(worlds) * len(runs) * len(seeds), "episodes")
+    worlds, renamed = key_apart(loaded)
     for run in runs:  # fail fast on a missing policy or profile, before any episode runs
         make_controller(run.method, run.policy)
     make_noise(args.noise, seeds[0])

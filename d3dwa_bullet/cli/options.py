@@ -21,11 +21,13 @@ import re
 import warnings
 from collections.abc import Callable, Sequence
 
+from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, WorldFormatError
 from d3dwa_bullet.limits import MAX_CONTROL_HZ, MAX_PHYSICS_HZ, MAX_TIME_LIMIT_S, check_processes
 from d3dwa_bullet.params import RECOVERY_KINDS, PlannerParams, SimParams, recovery_params
 from d3dwa_bullet.world.model import World, goal_in_obstacle, start_in_collision
 from d3dwa_bullet.world.registry import load_world, world_file_kind
+from randomization.profiles import load_profile
 
 RAY_HELP = (
     "run episodes on Ray: 'local' (a private instance), 'auto' (the cluster of `ray start`), "
@@ -91,6 +93,14 @@ def policy_arg(policy: str | None, methods: Sequence[str]) -> str | None:
             f"--policy {policy} needs exactly one method, got --methods {','.join(methods)}"
         )
     return policy
+
+
+def noise_arg(name: str) -> str:
+    """--noise checked before any simulator is imported: a shipped profile's name or a profile
+    file that loads (randomization's loader, through the bounded YAML loader)."""
+    if name != "none":
+        load_profile(name)  # ProfileError: one line naming the profile or file
+    return name
 
 
 def time_limit_arg(value: float | None, option: str = "--time-limit") -> float | None:
@@ -224,12 +234,9 @@ def recovery_arg(args: argparse.Namespace, control_period: float):
     return recovery_params(kind, radius, window)
 
 
-def episode_config(args: argparse.Namespace):
+def episode_config(args: argparse.Namespace) -> EpisodeConfig:
     """EpisodeConfig from --physics-hz / --control-hz (checked: physics must divide evenly,
     neither over its limit in :mod:`d3dwa_bullet.limits`) and, on commands that take it, --recovery (see :func:`recovery_arg`)."""
-    # start-up cost: d3dwa_bullet.episode imports pybullet and scipy (~0.5 s)
-    from d3dwa_bullet.episode import EpisodeConfig
-
     MAX_PHYSICS_HZ.check("--physics-hz", args.physics_hz, "Hz")
     MAX_CONTROL_HZ.check("--control-hz", args.control_hz, "Hz")
     sim = SimParams(physics_hz=args.physics_hz, control_hz=args.control_hz)

@@ -7,6 +7,7 @@ import os
 import sys
 
 from d3dwa_bullet.cli.output import json_text
+from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.resources import policies_dir
 
@@ -25,7 +26,11 @@ def cmd_report(args: argparse.Namespace) -> int:
 
     if os.path.isdir(args.dir) and not os.access(args.dir, os.W_OK | os.X_OK):
         raise ConfigError(f"{args.dir}: cannot write report.md in it (permission denied)")
-    report = write_report(args.dir, args.policies or policies_dir())
+    if not os.path.isdir(args.dir):  # write_report names what is missing
+        report = write_report(args.dir, args.policies or policies_dir())
+    else:
+        with locked_dir(args.dir, "DIR"):  # not while an eval or sweep still writes it
+            report = write_report(args.dir, args.policies or policies_dir())
     if args.json:
         print(json_text({"report": str(report.path), "kind": report.kind,
                           "complete": report.complete, "done": report.done,

@@ -16,6 +16,7 @@ from d3dwa_bullet.cli.options import (
     add_world_option,
     episode_config,
     load_task_world,
+    noise_arg,
 )
 from d3dwa_bullet.cli.output import check_out_file, json_text
 from d3dwa_bullet.errors import ConfigError
@@ -39,16 +40,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    # Input is checked before the simulator is imported, so a refusal comes at once.
+    config = episode_config(args)
+    world = load_task_world(args)
+    noise_arg(args.noise)
+    if args.plot:
+        check_out_file(args.plot, "--plot", figure_suffixes())
     # start-up cost: the simulator (pybullet) is imported only when an episode runs
     from d3dwa_bullet.episode import run_episode
     from d3dwa_bullet.evaluation.jobs import make_noise
     from d3dwa_bullet.methods import LABELS, make_controller
 
-    config = episode_config(args)
-    world = load_task_world(args)
     controller = make_controller(args.method, args.policy)
-    if args.plot:
-        check_out_file(args.plot, "--plot", figure_suffixes())
     result = run_episode(
         world, controller, seed=args.seed, noise=make_noise(args.noise, args.seed),
         noise_name=args.noise, config=config, gui=args.gui,

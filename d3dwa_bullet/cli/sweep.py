@@ -23,6 +23,14 @@ from d3dwa_bullet.cli.options import (
     workers_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
+from d3dwa_bullet.evaluation.backends import check_address
+from d3dwa_bullet.evaluation.noise_axes import AXES
+from d3dwa_bullet.evaluation.sweep_settings import (
+    PROFILES,
+    SHIPPED_WORLDS,
+    STYLES,
+    SweepSettings,
+)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -64,18 +72,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    # start-up cost: the sweep imports the simulator (pybullet) and the planner (numba)
-    from d3dwa_bullet.evaluation.backends import check_address
-    from d3dwa_bullet.evaluation.noise_axes import AXES
-    from d3dwa_bullet.evaluation.sweep import (
-        PROFILES,
-        SHIPPED_WORLDS,
-        STYLES,
-        SweepSettings,
-        run_sweep,
-        summary_records,
-    )
-
+    # Settings, counts, worlds and profiles are checked before the simulator is imported, so a
+    # refusal comes at once (evaluation.sweep_settings is pure).
     check_address(args.ray)
     workers = workers_arg(args)
     settings = SweepSettings(
@@ -89,8 +87,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     )  # fmt: skip
     policy = policy_arg(args.policy, settings.methods)
     config = episode_config(args)
-    for w in settings.worlds:  # a bad or empty world file is refused before any episode
-        load_cli_world(w, args.allow_empty, warn=False)
+    # a bad or empty world file is refused before any episode
+    worlds = [load_cli_world(w, args.allow_empty, warn=False) for w in settings.worlds]
+    # start-up cost: the sweep's episodes import the simulator (pybullet) and the planner (numba)
+    from d3dwa_bullet.evaluation.jobs import Job, check_distinct
+    from d3dwa_bullet.evaluation.sweep import run_sweep, summary_records
+
+    # two different worlds under one name are refused before --out is made
+    check_distinct([Job(w, settings.methods[0], 0, "none") for w in worlds])
     out = check_out_dir(args.out, subdirs=("logs", "figures"))
     rows, complete = run_sweep(
         settings, out, workers=workers, ray_address=args.ray,

@@ -10,7 +10,9 @@ from pathlib import Path
 
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.limits import MAX_TOTAL_STEPS, check_processes
+from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.resources import configs_dir
+from d3dwa_bullet.seed_dirs import parse_seeds
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -57,6 +59,22 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
+    # Counts and the config file are checked before torch is imported, so a refusal comes at
+    # once; the config's own fields are checked when it is built (load_train_config).
+    if args.total_steps is not None and args.total_steps < 1:
+        raise ConfigError(f"--total-steps must be >= 1, got {args.total_steps}")
+    if args.total_steps is not None:
+        MAX_TOTAL_STEPS.check("--total-steps", args.total_steps, "steps")
+    if args.n_envs is not None and args.n_envs < 0:
+        raise ConfigError(f"--n-envs must be >= 1 (or 0: one per core), got {args.n_envs}")
+    if args.n_envs:
+        check_processes("--n-envs", args.n_envs)
+    if args.config:
+        load_yaml(args.config, ConfigError, "training config")  # size, depth, aliases
+    if args.seeds is not None:
+        return _train_seeds(args)
+    if args.ray is not None:
+        raise ConfigError("--ray runs the seeds of --seeds as Ray tasks: give --seeds too")
     # start-up cost: training imports torch (~1 s)
     from d3dwa_bullet.learning.training import (
         TrainConfig,
@@ -66,18 +84,6 @@ def cmd_train(args: argparse.Namespace) -> int:
         train,
     )
 
-    if args.total_steps is not None and args.total_steps < 1:
-        raise ConfigError(f"--total-steps must be >= 1, got {args.total_steps}")
-    if args.total_steps is not None:
-        MAX_TOTAL_STEPS.check("--total-steps", args.total_steps, "steps")
-    if args.n_envs is not None and args.n_envs < 0:
-        raise ConfigError(f"--n-envs must be >= 1 (or 0: one per core), got {args.n_envs}")
-    if args.n_envs:
-        check_processes("--n-envs", args.n_envs)
-    if args.seeds is not None:
-        return _train_seeds(args)
-    if args.ray is not None:
-        raise ConfigError("--ray runs the seeds of --seeds as Ray tasks: give --seeds too")
     overrides = {
         "method": args.method,
         "total_steps": args.total_steps,
@@ -141,11 +147,6 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 def _train_seeds(args: argparse.Namespace) -> int:
     """``--seeds``: one run per seed under --out (``learning.training.seeds``)."""
-    # start-up cost: training imports torch (~1 s)
-    from d3dwa_bullet.learning.training import check_run_limits, load_train_config
-    from d3dwa_bullet.learning.training.seeds import SeedOutcome, train_seeds
-    from d3dwa_bullet.seed_dirs import parse_seeds
-
     seeds = parse_seeds(args.seeds)
     if args.seed is not None:
         raise ConfigError("--seed and --seeds exclude each other: give one")
@@ -155,6 +156,10 @@ def _train_seeds(args: argparse.Namespace) -> int:
         if not args.method:
             raise ConfigError("--seeds needs --config FILE or --method NAME")
         args.config = str(configs_dir() / f"{args.method}.yaml")
+    # start-up cost: training imports torch (~1 s)
+    from d3dwa_bullet.learning.training import check_run_limits, load_train_config
+    from d3dwa_bullet.learning.training.seeds import SeedOutcome, train_seeds
+
     config = load_train_config(
         args.config, method=args.method, total_steps=args.total_steps, n_envs=args.n_envs
     )

@@ -27,6 +27,7 @@ from d3dwa_bullet.cli.options import (
     time_limit_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
+from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import BagFormatError, ConfigError, D3DWAError
 from d3dwa_bullet.params import SimParams
 from d3dwa_bullet.sim.scan import Pose2D
@@ -137,28 +138,29 @@ def run_replay(
     goal = parse_floats(args.goal, 2, "--goal") if args.goal else None
     mount = Pose2D(*parse_floats(args.mount, 3, "--mount")) if args.mount else None
     check_out_dir(args.out)
-    try:
-        result = replay_bag(
-            args.bag,
-            step_fn=step_fn,
-            goal=goal,
-            topics=parse_topic_overrides(args.topic),
-            mount=mount,
-            out_dir=args.out,
-            clock=args.clock,
-            plots=not args.no_plots,
-        )
-    except D3DWAError:
-        raise
-    except KeyboardInterrupt as err:
-        raise KeyboardInterrupt(
-            f"the scans replayed so far are in {Path(args.out) / 'replay.csv'}"
-        ) from err
-    except Exception as err:  # noqa: BLE001 - reported as one line; rows so far are on disk
-        raise D3DWAError(
-            f"{args.bag}: replay with {args.method!r} stopped: {type(err).__name__}: {err}; "
-            f"scans replayed before the failure are in {Path(args.out) / 'replay.csv'}"
-        ) from err
+    with locked_dir(args.out):  # one writer: replay.csv, summary.json, figures
+        try:
+            result = replay_bag(
+                args.bag,
+                step_fn=step_fn,
+                goal=goal,
+                topics=parse_topic_overrides(args.topic),
+                mount=mount,
+                out_dir=args.out,
+                clock=args.clock,
+                plots=not args.no_plots,
+            )
+        except D3DWAError:
+            raise
+        except KeyboardInterrupt as err:
+            raise KeyboardInterrupt(
+                f"the scans replayed so far are in {Path(args.out) / 'replay.csv'}"
+            ) from err
+        except Exception as err:  # noqa: BLE001 - reported as one line; rows so far are on disk
+            raise D3DWAError(
+                f"{args.bag}: replay with {args.method!r} stopped: {type(err).__name__}: {err}; "
+                f"scans replayed before the failure are in {Path(args.out) / 'replay.csv'}"
+            ) from err
     if args.json:
         out.write(json_text(result.summary(), indent=2) + "\n")
     else:

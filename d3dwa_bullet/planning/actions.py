@@ -24,12 +24,25 @@ from __future__ import annotations
 import itertools
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.planning.planner import PlannerAction
+
+
+class PlannerAction(NamedTuple):
+    """DWA evaluation weights and prediction horizon chosen for one control step."""
+
+    wp: float
+    """Progress weight."""
+    wc: float
+    """Clearance weight."""
+    ws: float
+    """Speed weight."""
+    tau: float
+    """Prediction horizon, s."""
+
 
 #: Horizon used by the fixed-weight baselines and every weights-only method, s.
 FIXED_HORIZON = 4.0

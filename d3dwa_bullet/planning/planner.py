@@ -42,25 +42,13 @@ import numba
 import numpy as np
 
 from d3dwa_bullet.params import PlannerParams
+from d3dwa_bullet.planning.actions import PlannerAction  # re-exported: its old home
 from d3dwa_bullet.sim.scan import check_points
 
 #: Admissible means clearance > r + m + TIE_TOLERANCE. Lattice clearances are sqrt(n) * res,
 #: so a trajectory exactly 10 cells (= r + m) away is common; rounding (float32 field vs
 #: float64 maths) must not decide it. The next lattice value above 0.2 m is 0.201 m.
 TIE_TOLERANCE = 1e-6
-
-
-class PlannerAction(NamedTuple):
-    """DWA evaluation weights and prediction horizon chosen for one control step."""
-
-    wp: float
-    """Progress weight."""
-    wc: float
-    """Clearance weight."""
-    ws: float
-    """Speed weight."""
-    tau: float
-    """Prediction horizon, s."""
 
 
 class PlanResult(NamedTuple):

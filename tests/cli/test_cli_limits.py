@@ -221,7 +221,7 @@ def test_two_world_files_with_one_name_are_keyed_apart_by_eval_and_refused_by_sw
             "none", "--methods", "dwa1", "--workers", "1", "--out", tmp_path / "sweep"]  # fmt: skip
     line = refused(capsys, *argv)
     assert f"worlds {a} and {b} are both named 'same'" in line
-    assert not (tmp_path / "sweep" / "results.csv").exists()
+    assert not (tmp_path / "sweep").exists()  # refused before --out was made
 
 
 def test_worlds_whose_log_names_would_clash_are_refused(tmp_path, capsys, monkeypatch):

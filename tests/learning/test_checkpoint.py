@@ -16,6 +16,7 @@ from d3dwa_bullet.learning.agents import checkpoint as ckpt
 from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint, save_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
+from d3dwa_bullet.learning.agents.network import DuelingQNetwork, parameter_count
 from d3dwa_bullet.learning.agents.policy import load_policy
 from d3dwa_bullet.learning.agents.replay import Transition
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
@@ -136,6 +137,28 @@ def test_hidden_size_not_matching_weights(saved: Path) -> None:
         load_checkpoint(saved)
 
 
+def test_a_network_larger_than_its_weights_file_is_refused_before_allocation(
+    saved: Path, monkeypatch
+) -> None:
+    meta = json.loads((saved / "meta.json").read_text())
+    _edit_meta(saved, config={**meta["config"], "hidden": [100_000, 100_000]})
+
+    def no_network(*args, **kwargs):
+        raise AssertionError("the network was built")
+
+    monkeypatch.setattr(ckpt, "D3QNAgent", no_network)
+    with pytest.raises(CheckpointError, match=r"10,011,500,101 weights .* holds only"):
+        load_checkpoint(saved)
+
+
+@pytest.mark.parametrize(("obs_dim", "n_actions", "hidden"), [(12, 100, (128, 128)), (17, 5, (3,))])
+def test_parameter_count_is_the_built_networks(obs_dim, n_actions, hidden) -> None:
+    network = DuelingQNetwork(obs_dim, n_actions, hidden)
+    assert parameter_count(obs_dim, n_actions, hidden) == sum(
+        p.numel() for p in network.parameters()
+    )
+
+
 @pytest.mark.parametrize(
     ("observation", "match"),
     [
@@ -165,7 +188,11 @@ def test_truncated_weights(saved: Path) -> None:
     (saved / "weights.pt").write_bytes(data[: len(data) // 2])
     with pytest.raises(CheckpointError, match="weights.pt: truncated"):
         load_checkpoint(saved)
-    _refresh_digest(saved, "weights.pt")  # even if meta.json agreed, torch cannot read it
+    _refresh_digest(saved, "weights.pt")  # even if meta.json agreed: too small for the network
+    with pytest.raises(CheckpointError, match="weights.pt holds only"):
+        load_checkpoint(saved)
+    (saved / "weights.pt").write_bytes(bytes(len(data)))  # large enough, but not a torch file
+    _refresh_digest(saved, "weights.pt")
     with pytest.raises(CheckpointError, match="weights.pt: cannot be read"):
         load_checkpoint(saved)
 

@@ -24,7 +24,7 @@ from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.failures import MODES, SYMPTOMS, classify, recoveries
 from d3dwa_bullet.evaluation.jobs import log_name
 from d3dwa_bullet.evaluation.results import job_rows, load_log, recovery_of, row_key
-from d3dwa_bullet.evaluation.sweep import PROFILES
+from d3dwa_bullet.evaluation.sweep_settings import PROFILES
 from d3dwa_bullet.io import atomic_savefig
 from d3dwa_bullet.methods import LABELS
 

@@ -49,6 +49,7 @@ from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
+from d3dwa_bullet.learning.agents.network import check_network_fits
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
 from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
@@ -308,7 +309,9 @@ def load_checkpoint(
     data = _check_file(root, _DATA_FILES[family], meta)
     try:
         if family == "d3qn":
-            agent: Agent = D3QNAgent(actions, D3QNConfig.from_dict(meta["config"]), layout)
+            config = D3QNConfig.from_dict(meta["config"])
+            check_network_fits(meta_path, data, len(layout), actions.size, config.hidden)
+            agent: Agent = D3QNAgent(actions, config, layout)
         else:
             agent = DQDWAAgent(actions, DQDWAConfig.from_dict(meta["config"]))
     except (ConfigError, TypeError) as err:

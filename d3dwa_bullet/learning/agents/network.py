@@ -3,11 +3,35 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 
 import torch
 from torch import nn
 
-from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.errors import CheckpointError, ConfigError
+
+
+def parameter_count(obs_dim: int, n_actions: int, hidden: Sequence[int]) -> int:
+    """Weights and biases of a DuelingQNetwork of these sizes, counted without building it (a
+    checkpoint's meta.json is checked against its weights file before any allocation)."""
+    widths = [int(obs_dim), *(int(h) for h in hidden)]
+    body = sum((a + 1) * b for a, b in zip(widths, widths[1:], strict=False))
+    return body + (widths[-1] + 1) * (1 + int(n_actions))
+
+
+def check_network_fits(
+    meta_path: Path, data: Path, obs_dim: int, n_actions: int, hidden: Sequence[int]
+) -> None:
+    """CheckpointError when the network meta.json describes holds more float32 weights than
+    the weights file has bytes: its size is checked before the network is allocated."""
+    count = parameter_count(obs_dim, n_actions, hidden)
+    size = data.stat().st_size
+    if 4 * count > size:
+        raise CheckpointError(
+            f"{meta_path}: field 'config': hidden {list(hidden)} makes a network of {count:,} "
+            f"weights ({4 * count / 2**20:,.1f} MiB as float32), but {data.name} holds only "
+            f"{size:,} bytes"
+        )
 
 
 class DuelingQNetwork(nn.Module):

@@ -1,0 +1,34 @@
+"""What an episode needs besides the world, the controller and the seed: pure parameters, so a
+command can build and check it before importing the simulator (``d3dwa_bullet.episode``
+re-exports it)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from d3dwa_bullet.params import (
+    ObservationParams,
+    PlannerParams,
+    RecoveryParams,
+    SimParams,
+    TerminationParams,
+)
+from d3dwa_bullet.sim.lidar_params import LidarParams
+
+
+@dataclass(frozen=True)
+class EpisodeConfig:
+    """Everything an episode needs besides the world, the controller and the seed."""
+
+    sim: SimParams = field(default_factory=SimParams)
+    planner: PlannerParams = field(default_factory=PlannerParams)
+    observation: ObservationParams = field(default_factory=ObservationParams)
+    termination: TerminationParams = field(default_factory=TerminationParams)
+    lidar: LidarParams = field(default_factory=LidarParams)
+    recovery: RecoveryParams | None = None
+    """The recovery layer around the controller (beyond the paper; None = the paper's stack)."""
+
+    @property
+    def recovery_name(self) -> str:
+        """The ``--recovery`` name of this config: "none" or the recipe's kind."""
+        return "none" if self.recovery is None else self.recovery.kind
