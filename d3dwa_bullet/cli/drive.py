@@ -24,7 +24,9 @@ from d3dwa_bullet.cli.options import (
     time_limit_arg,
 )
 from d3dwa_bullet.cli.output import json_text
+from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, D3DWAError
+from d3dwa_bullet.methods import check_method
 from d3dwa_bullet.params import SimParams, TerminationParams
 
 ROBOT_EXTRA = 'pip install "d3dwa-bullet[robot]"'
@@ -79,15 +81,11 @@ def _seconds(value: float, option: str) -> float:
 
 
 def cmd_drive(args: argparse.Namespace) -> int:
-    live = robot_extra("drive")
-    # start-up cost: the planner, the policy and transfer's replay step (pybullet, torch)
-    from d3dwa_bullet.episode import EpisodeConfig
-    from d3dwa_bullet.methods import make_controller
-    from transfer.bag_writer import BagRecorder
-    from transfer.sim_bridge import ReplayPipeline
-
+    # Input is checked before the robot extra, the simulator or torch is imported.
     goal = parse_floats(args.goal, 2, "--goal X,Y")
-    limits = live.SpeedLimits(*parse_floats(args.speed_limit, 2, "--speed-limit V,W"))
+    limits = parse_floats(args.speed_limit, 2, "--speed-limit V,W")
+    if min(limits) <= 0:
+        raise ConfigError(f"--speed-limit must be two numbers > 0, got {args.speed_limit!r}")
     for option, value in (
         ("--watchdog", args.watchdog), ("--timeout", args.timeout),
         ("--connect-timeout", args.connect_timeout),
@@ -95,17 +93,24 @@ def cmd_drive(args: argparse.Namespace) -> int:
         _seconds(value, option)
     time_limit = time_limit_arg(args.time_limit) or TerminationParams().time_limit
     config = EpisodeConfig(recovery=recovery_arg(args, SimParams().control_period))
+    check_method(args.method)
+    if args.record is not None and args.record.exists() and not args.overwrite:
+        raise ConfigError(f"--record {args.record}: exists; pass --overwrite to replace it")
+    live = robot_extra("drive")
+    # start-up cost: the policy (torch) and transfer's replay step (the planner, pybullet)
+    from d3dwa_bullet.methods import make_controller
+    from transfer.bag_writer import BagRecorder
+    from transfer.sim_bridge import ReplayPipeline
+
     settings = live.DriveSettings(
-        goal=goal, time_limit=time_limit, limits=limits, watchdog_s=args.watchdog,
-        lockstep=args.lockstep,
+        goal=goal, time_limit=time_limit, limits=live.SpeedLimits(*limits),
+        watchdog_s=args.watchdog, lockstep=args.lockstep,
     )  # fmt: skip
     controller = make_controller(args.method, args.policy)
     pipeline = ReplayPipeline(controller, estimator=args.estimator, config=config)
     live.warm_up(pipeline)
     recorder = None
     if args.record is not None:
-        if args.record.exists() and not args.overwrite:
-            raise ConfigError(f"--record {args.record}: exists; pass --overwrite to replace it")
         recorder = BagRecorder(args.record, goal=goal, overwrite=args.overwrite)
     link = live.KachakaLink(
         args.kachaka, timeout=args.timeout, connect_timeout=args.connect_timeout

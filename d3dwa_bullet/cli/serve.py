@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 
 from d3dwa_bullet.cli.drive import robot_extra
-from d3dwa_bullet.cli.options import add_world_option, load_cli_world
+from d3dwa_bullet.cli.options import add_world_option, load_cli_world, noise_arg
 from d3dwa_bullet.errors import ConfigError
 
 
@@ -36,13 +36,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
+    # Input is checked before the robot extra and the simulator are imported.
+    if not 0 <= args.port < 65536:
+        raise ConfigError(f"--port must be 0-65535, got {args.port}")
+    world = load_cli_world(args.world, args.allow_empty)
+    noise_arg(args.noise)
     live = robot_extra("serve")
     # start-up cost: the simulator (pybullet) only when serving
     from d3dwa_bullet.evaluation.jobs import make_noise
 
-    world = load_cli_world(args.world, args.allow_empty)
-    if not 0 <= args.port < 65536:
-        raise ConfigError(f"--port must be 0-65535, got {args.port}")
     servicer = live.SimulatedKachaka(world, noise=make_noise(args.noise, args.seed), mode=args.mode)
     try:
         server, port = live.start_server(servicer, args.port, args.host)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import socket
+import subprocess
 import sys
 
 import numpy as np
@@ -134,3 +135,23 @@ def test_recorded_drive_replays_to_the_same_commands(capsys, serve, tmp_path):
     code, out, err = run(capsys, "compare-scans", str(bag), str(bag), "--json")
     assert code == 0, err
     assert json.loads(out)["a"]["scans"] == steps
+
+
+def test_refusals_come_before_the_heavy_imports():
+    """Bad drive / serve input is refused before grpc, the simulator or torch is imported."""
+    script = (
+        "import sys\nfrom d3dwa_bullet.cli.app import main\n"
+        'for argv in (["drive", "--kachaka", "h", "--goal", "1", "--method", "dwa3"],'
+        ' ["drive", "--kachaka", "h", "--goal", "1,2", "--method", "nope"],'
+        ' ["drive", "--kachaka", "h", "--goal", "1,2", "--method", "dwa3",'
+        ' "--speed-limit", "0,1"],'
+        ' ["serve", "--world", "R1", "--noise", "nope"]):\n'
+        "    assert main(argv) == 2\n"
+        "print([m for m in ('torch', 'pybullet', 'numba', 'grpc') if m in sys.modules])\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"
+    assert done.stderr.count("d3dwa: error: ") == 4
