@@ -7,7 +7,6 @@ from __future__ import annotations
 import re
 import signal
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -15,22 +14,8 @@ import pytest
 pytest.importorskip("kachaka_api", reason="the robot extra is not installed")
 
 from tests.support.hang_guard import within  # noqa: E402
+from tests.support.serve_process import D3DWA, start_serve  # noqa: E402
 from transfer.bag_reader import read_bag  # noqa: E402
-
-D3DWA = [sys.executable, "-m", "d3dwa_bullet.cli"]
-
-
-def start_serve(*extra: str) -> tuple[subprocess.Popen, str]:
-    """``d3dwa serve --world R1 --port 0 ...`` and the address it prints."""
-    proc = subprocess.Popen(
-        [*D3DWA, "serve", "--world", "R1", "--port", "0", *extra],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    assert proc.stdout is not None
-    line = proc.stdout.readline()
-    found = re.search(r"on (127\.0\.0\.1:\d+)", line)
-    assert found, (line, proc.stderr.read() if proc.poll() is not None else "")
-    return proc, found[1]
 
 
 def start_drive(address: str, bag: Path) -> subprocess.Popen:
