@@ -121,6 +121,11 @@ MAX_MAP_BOXES = Limit(200_000, "each box is a PyBullet body")
 MAX_REPLAY_CAPACITY = Limit(50_000_000, "the replay buffer is allocated whole")
 """Replay capacity in transitions (``agent.buffer_size``); the paper's agent keeps 100k."""
 
+MAX_POLICY_BYTES = Limit(64 * 2**20, "an exported policy network is a few hundred kB")
+"""Size of an ONNX policy file (``--onnx FILE``), read whole before onnxruntime parses it:
+the shipped networks export to 90-130 kB; 64 MiB leaves room for networks a thousand
+times larger."""
+
 REPLAY_MEMORY_FRACTION = 0.5
 """A replay buffer may take at most this fraction of the memory available when it is
 allocated (or when the training config is read), so training never pushes the machine into

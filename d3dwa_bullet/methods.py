@@ -2,7 +2,8 @@
 
 A *controller* maps an observation to the DWA parameters of one control step; the planner
 then does the rest. Fixed baselines return constants; learned methods run a greedy policy
-loaded from a checkpoint directory (``policies/<name>/`` by default, or ``--policy PATH``).
+loaded from a checkpoint directory (``policies/<name>/`` by default, or ``--policy PATH``),
+or from an exported ONNX file (``--onnx FILE``, docs/design.md#onnx-policies).
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from d3dwa_bullet.errors import CheckpointError, UnknownNameError
+from d3dwa_bullet.errors import CheckpointError, ConfigError, UnknownNameError
 from d3dwa_bullet.planning.actions import (
     ACTIONS_FULL,
     ACTIONS_WEIGHTS_ONLY,
@@ -39,6 +40,8 @@ LEARNED: dict[str, ActionSet] = {
 #: The observation kind each learned method's policy reads (docs/design.md#progress-observation);
 #: the rest read the paper's 12-d state. ``d3dwa-pa`` and ``d3dwa-pa-dr`` are beyond the paper.
 OBSERVATIONS: dict[str, str] = {"d3dwa-pa": "progress", "d3dwa-pa-dr": "progress"}
+#: Learned methods whose policy is a network, so exports to ONNX (dqdwa's is a Q-table).
+ONNX_METHODS = tuple(m for m in LEARNED if m != "dqdwa")
 METHODS = tuple(FIXED) + tuple(LEARNED)
 LABELS = {
     "dwa1": "DWA I (1,1,2)",
@@ -87,9 +90,18 @@ def default_policy_path(name: str) -> Path:
     return policies_dir() / name
 
 
-def make_controller(name: str, policy_path: str | Path | None = None) -> Controller:
-    """The controller of a method; learned ones load their policy (CheckpointError if absent)."""
+def make_controller(
+    name: str, policy_path: str | Path | None = None, onnx: str | Path | None = None
+) -> Controller:
+    """The controller of a method; learned ones load their policy (CheckpointError if absent).
+
+    policy_path: a checkpoint directory (default: the shipped ``policies/<name>/``); onnx: an
+    ONNX file exported by ``d3dwa export --onnx``, run by onnxruntime without torch (the
+    file's observation kind and action set must be the method's). Not both.
+    """
     check_method(name)
+    if onnx is not None:
+        return _onnx_controller(name, policy_path, onnx)
     if name in FIXED:
         return Controller(name, fixed=FIXED[name], source="fixed")
     # start-up cost, and layering: loading a policy imports torch and the learning layer,
@@ -101,6 +113,29 @@ def make_controller(name: str, policy_path: str | Path | None = None) -> Control
     policy, actions, _ = load_policy(
         path, expected_actions=LEARNED[name], expected_observation=(kind, f"method {name!r}")
     )
+    return Controller(name, policy=policy, actions=actions, source=source, observation=kind)
+
+
+def _onnx_controller(name: str, policy_path: str | Path | None, onnx: str | Path) -> Controller:
+    if policy_path is not None:
+        raise ConfigError(
+            f"a policy directory ({policy_path}) and an ONNX file ({onnx}) both name the "
+            f"policy of method {name!r}: give one"
+        )
+    if name not in ONNX_METHODS:
+        raise ConfigError(
+            f"{onnx}: method {name!r} does not run a network; an ONNX policy drives one of "
+            f"{', '.join(ONNX_METHODS)}"
+        )
+    # the optional `robot` extra (onnxruntime), imported only when a file is run; this
+    # path never imports torch, so a robot without torch can drive
+    from d3dwa_bullet.learning.agents.onnx_policy import load_onnx_policy
+
+    kind = method_observation(name)
+    policy, actions, meta = load_onnx_policy(
+        onnx, expected_actions=LEARNED[name], expected_observation=(kind, f"method {name!r}")
+    )
+    source = f"{onnx} (ONNX, exported for {meta['method']})"
     return Controller(name, policy=policy, actions=actions, source=source, observation=kind)
 
 

@@ -9,11 +9,13 @@
     d3dwa train --config configs/d3dwa.yaml --out runs/d3dwa   train a learned method (--resume)
     d3dwa replay / record / compare-scans ROS bags (see d3dwa_bullet.cli.transfer)
     d3dwa calibrate BAG... --out my_robot.yaml   fit a noise profile to your own bags
+    d3dwa export --onnx DIR               trained D3QN policies -> ONNX files (run --onnx FILE)
     d3dwa serve --world R1 --lockstep     a simulated Kachaka behind the Kachaka API (gRPC)
     d3dwa drive --kachaka HOST --goal X,Y --method dwa3   drive a robot through that API
 
 Each command is one module of this package (``worlds``, ``run``, ``eval``, ``sweep``,
-``report``, ``compare``, ``train``, ``bags``, ``drive``, ``serve``) with ``add_parser(sub)`` and its ``cmd_*(args)``; shared
+``report``, ``compare``, ``train``, ``bags``, ``calibrate``, ``export``, ``drive``, ``serve``)
+with ``add_parser(sub)`` and its ``cmd_*(args)``; shared
 options are in ``options``. A command imports the simulator, torch or matplotlib only when
 it runs, so ``d3dwa --help`` and ``d3dwa worlds`` start quickly.
 
@@ -38,6 +40,7 @@ import d3dwa_bullet.cli.calibrate as calibrate_command
 import d3dwa_bullet.cli.compare as compare_command
 import d3dwa_bullet.cli.drive as drive_command
 import d3dwa_bullet.cli.eval as eval_command
+import d3dwa_bullet.cli.export as export_command
 import d3dwa_bullet.cli.report as report_command
 import d3dwa_bullet.cli.run as run_command
 import d3dwa_bullet.cli.serve as serve_command
@@ -57,6 +60,7 @@ COMMANDS = (
     train_command,
     bags_commands,
     calibrate_command,
+    export_command,
     drive_command,
     serve_command,
 )

@@ -36,6 +36,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--colour-by", choices=("time", "tau"), default="time", help="trajectory colour in --plot"
     )
     add_episode_options(p)
+    p.add_argument(
+        "--onnx",
+        metavar="FILE",
+        help="an ONNX policy exported by `d3dwa export --onnx` for a learned method, run by "
+        "onnxruntime (instead of --policy: checks the export drives the same episode)",
+    )
     p.set_defaults(func=cmd_run, interrupted="the episode was not finished; nothing written")
 
 
@@ -44,6 +50,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     config = episode_config(args)
     world = load_task_world(args)
     noise_arg(args.noise)
+    if args.onnx is not None and args.policy is not None:
+        raise ConfigError(
+            f"--onnx {args.onnx} and --policy {args.policy} both name the policy: give one"
+        )
     if args.plot:
         check_out_file(args.plot, "--plot", figure_suffixes())
     # start-up cost: the simulator (pybullet) is imported only when an episode runs
@@ -51,7 +61,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from d3dwa_bullet.evaluation.jobs import make_noise
     from d3dwa_bullet.methods import LABELS, make_controller
 
-    controller = make_controller(args.method, args.policy)
+    controller = make_controller(args.method, args.policy, onnx=args.onnx)
     result = run_episode(
         world, controller, seed=args.seed, noise=make_noise(args.noise, args.seed),
         noise_name=args.noise, config=config, gui=args.gui,
