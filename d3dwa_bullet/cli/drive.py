@@ -1,4 +1,5 @@
-"""``d3dwa drive``: a method drives a Kachaka (or ``d3dwa serve``) through the Kachaka API.
+"""``d3dwa drive``: a method drives a Kachaka (or ``d3dwa serve``) through the Kachaka API; a
+learned one from its checkpoint (torch) or from an ONNX export (``--onnx``, onnxruntime).
 
 Everything that can be refused without the robot is refused before connecting (method,
 policy, goal and limits, the ``--record`` destination), so a bad command line sends nothing.
@@ -50,6 +51,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--method", required=True, help="dwa1, dwa2, dwa3, dqdwa, d3dwa, ...")
     p.add_argument("--policy", help="checkpoint directory for a learned method")
     p.add_argument(
+        "--onnx", metavar="FILE",
+        help="an ONNX policy from `d3dwa export --onnx` (instead of --policy): runs on "
+        "onnxruntime, so the robot's computer needs no torch",
+    )  # fmt: skip
+    p.add_argument(
         "--estimator", choices=("odometry", "ekf"), default="odometry",
         help="pose source: the robot's fused odometry (default) or the EKF over its wheel "
         "odometry and IMU, as `d3dwa replay --estimator`",
@@ -94,10 +100,14 @@ def cmd_drive(args: argparse.Namespace) -> int:
     time_limit = time_limit_arg(args.time_limit) or TerminationParams().time_limit
     config = EpisodeConfig(recovery=recovery_arg(args, SimParams().control_period))
     check_method(args.method)
+    if args.onnx is not None and args.policy is not None:
+        raise ConfigError(
+            f"--onnx {args.onnx} and --policy {args.policy} both name the policy: give one"
+        )
     if args.record is not None and args.record.exists() and not args.overwrite:
         raise ConfigError(f"--record {args.record}: exists; pass --overwrite to replace it")
     live = robot_extra("drive")
-    # start-up cost: the policy (torch) and transfer's replay step (the planner, pybullet)
+    # start-up cost: the policy (torch, or onnxruntime) and transfer's replay step (pybullet)
     from d3dwa_bullet.methods import make_controller
     from transfer.bag_writer import BagRecorder
     from transfer.sim_bridge import ReplayPipeline
@@ -106,7 +116,7 @@ def cmd_drive(args: argparse.Namespace) -> int:
         goal=goal, time_limit=time_limit, limits=live.SpeedLimits(*limits),
         watchdog_s=args.watchdog, lockstep=args.lockstep,
     )  # fmt: skip
-    controller = make_controller(args.method, args.policy)
+    controller = make_controller(args.method, args.policy, onnx=args.onnx)
     pipeline = ReplayPipeline(controller, estimator=args.estimator, config=config)
     live.warm_up(pipeline)
     recorder = None

@@ -15,6 +15,7 @@ import pytest
 pytest.importorskip("kachaka_api", reason="the robot extra is not installed")
 
 from d3dwa_bullet.episode import EpisodeConfig  # noqa: E402
+from d3dwa_bullet.learning.agents.onnx_export import export_onnx  # noqa: E402
 from d3dwa_bullet.resources import policies_dir  # noqa: E402
 from d3dwa_bullet.sim.lidar import LidarParams  # noqa: E402
 from d3dwa_bullet.world.registry import load_world  # noqa: E402
@@ -155,3 +156,18 @@ def test_refusals_come_before_the_heavy_imports():
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"
     assert done.stderr.count("d3dwa: error: ") == 4
+
+
+def test_drive_with_an_onnx_policy_never_imports_torch(tmp_path):
+    onnx = export_onnx(policies_dir() / "d3dwa" / "seed-0", tmp_path / "d3dwa.onnx").file
+    script = (
+        "import sys\nfrom d3dwa_bullet.cli.app import main\n"
+        f"code = main(['drive', '--kachaka', '127.0.0.1:{free_port()}', '--goal', '3,0', "
+        f"'--method', 'd3dwa', '--onnx', {str(onnx)!r}, '--connect-timeout', '0.3'])\n"
+        "print(code, 'torch' in sys.modules, 'onnxruntime' in sys.modules)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
+    )
+    assert done.stdout.split() == ["2", "False", "True"], done.stderr
+    assert "cannot reach a Kachaka" in done.stderr  # it got as far as connecting

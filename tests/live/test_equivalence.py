@@ -17,7 +17,9 @@ pytest.importorskip("kachaka_api", reason="the robot extra is not installed")
 
 from d3dwa_bullet.episode import run_episode  # noqa: E402
 from d3dwa_bullet.evaluation.jobs import make_noise  # noqa: E402
+from d3dwa_bullet.learning.agents.onnx_export import export_onnx  # noqa: E402
 from d3dwa_bullet.methods import make_controller  # noqa: E402
+from d3dwa_bullet.resources import policies_dir  # noqa: E402
 from d3dwa_bullet.world.registry import load_world  # noqa: E402
 from tests.support.cli import run  # noqa: E402
 
@@ -79,3 +81,21 @@ def test_default_clamp_holds_commands_to_kachaka_limits(capsys, serve):
     sent = np.asarray(sim.received)
     assert np.abs(sent[:, 0]).max() <= 0.3 and np.abs(sent[:, 1]).max() <= 1.57
     assert np.isclose(np.abs(sent[:, 0]).max(), 0.3)  # the planner asked for more: clamped
+
+
+def test_an_onnx_policy_drives_the_torch_episode(capsys, serve, tmp_path):
+    """``drive --onnx`` (onnxruntime) against ``serve --lockstep`` is ``run`` with the
+    checkpoint the file was exported from: the same steps and commands."""
+    checkpoint = policies_dir() / "d3dwa" / "seed-0"
+    onnx = export_onnx(checkpoint, tmp_path / "d3dwa.onnx").file
+    world = load_world("R2")
+    sim, address = serve(world, mode="lockstep")
+    live = drive_json(
+        capsys, address, world.goal, "d3dwa", "--onnx", str(onnx), "--time-limit", "20"
+    )
+    episode = run_episode(world.with_task(time_limit=20.0), make_controller("d3dwa", checkpoint))
+    assert live["steps"] == episode.steps > 10 and live["outcome"] == episode.outcome
+    sent = np.asarray(sim.received[: live["steps"]])
+    np.testing.assert_array_equal(
+        sent, np.column_stack((episode.log["v_cmd"], episode.log["w_cmd"]))
+    )

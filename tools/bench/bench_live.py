@@ -8,8 +8,11 @@ bare round trips: one step's reads, one command. Unpaced by default (the loop ru
 it can, so many steps are measured in seconds; ``--paced`` runs it at the control rate, as
 ``d3dwa drive`` does on a robot). The target: p99 <= 20 ms.
 
+``d3dwa-onnx`` is ``d3dwa`` with its shipped seed-0 checkpoint exported to ONNX and run by
+onnxruntime (``drive --onnx``), beside the torch one.
+
     python -m tools.bench.bench_live --json
-    python -m tools.bench.bench_live --methods dwa3,d3dwa --steps 2000 --json
+    python -m tools.bench.bench_live --methods dwa3,d3dwa,d3dwa-onnx --steps 2000 --json
 """
 
 from __future__ import annotations
@@ -19,12 +22,16 @@ import json
 import re
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
+from d3dwa_bullet.learning.agents.onnx_export import export_onnx
 from d3dwa_bullet.live import DriveResult, DriveSettings, KachakaLink, drive, warm_up
-from d3dwa_bullet.methods import make_controller
+from d3dwa_bullet.methods import Controller, make_controller
+from d3dwa_bullet.resources import policies_dir
 from transfer.sim_bridge import ReplayPipeline
 
 #: A long corridor: the robot does not reach the goal while the loop is measured.
@@ -54,8 +61,16 @@ def serve() -> tuple[subprocess.Popen, str]:
     return proc, found[1]
 
 
-def bench_method(address: str, method: str, steps: int, paced: bool) -> dict:
-    pipeline = ReplayPipeline(make_controller(method))
+def controller(method: str, scratch: Path) -> Controller:
+    """The method's controller; ``d3dwa-onnx``: d3dwa's seed 0 exported and run on onnxruntime."""
+    if method != "d3dwa-onnx":
+        return make_controller(method)
+    exported = export_onnx(policies_dir() / "d3dwa" / "seed-0", scratch / "d3dwa.onnx")
+    return make_controller("d3dwa", onnx=exported.file)
+
+
+def bench_method(address: str, method: str, steps: int, paced: bool, scratch: Path) -> dict:
+    pipeline = ReplayPipeline(controller(method, scratch))
     warm_up(pipeline)
     link = KachakaLink(address, timeout=2.0)
     try:
@@ -89,19 +104,22 @@ def main() -> None:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    ap.add_argument("--methods", default="dwa3,d3dwa", help="comma list of methods")
+    ap.add_argument(
+        "--methods", default="dwa3,d3dwa,d3dwa-onnx", help="comma list of methods (+ d3dwa-onnx)"
+    )
     ap.add_argument("--steps", type=int, default=1000, help="loop steps per method")
     ap.add_argument("--paced", action="store_true", help="run the loop at the control rate")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     runs = []
-    for method in args.methods.split(","):
-        proc, address = serve()  # a fresh robot per method: each starts at the world's start
-        try:
-            runs.append(bench_method(address, method, args.steps, args.paced))
-        finally:
-            proc.terminate()
-            proc.wait()
+    with tempfile.TemporaryDirectory() as scratch:
+        for method in args.methods.split(","):
+            proc, address = serve()  # a fresh robot per method: each starts at the world's start
+            try:
+                runs.append(bench_method(address, method, args.steps, args.paced, Path(scratch)))
+            finally:
+                proc.terminate()
+                proc.wait()
     out = {"world": WORLD, "paced": args.paced, "target_p99_ms": 20.0, "runs": runs}
     if args.json:
         print(json.dumps(out))
