@@ -159,10 +159,25 @@ class ReplayPipeline:
             else None
         )  # fmt: skip
         """The recovery layer around the controller, as ``Episode`` runs it (None: the paper's
-        stack); its clock is the first step's t_ns plus the scan stamps' difference."""
+        stack), on :meth:`recovery_clock`."""
         self.last_recovery: RecoveryCommand | None = None
         """What the recovery layer drove at the last step (None: the planner drove)."""
         self._t0_ns: int | None = None
+
+    def recovery_clock(self, t_ns: int) -> float:
+        """Seconds since the first step's stamp. On the control grid (stamps k periods apart to
+        the ns, as a simulated robot's are) it is k x period, the very float ``Episode`` gives
+        the recovery layer (its step count x period), where the ns difference / 1e9 differs in
+        the last bit for about a third of all k and can move a progress window's end by a
+        step; off the grid (a real robot's stamps), the difference itself."""
+        if self._t0_ns is None:
+            self._t0_ns = t_ns
+        elapsed_ns = t_ns - self._t0_ns
+        period = self.config.sim.control_period
+        k = round(elapsed_ns / (period * 1e9))
+        if elapsed_ns == round(k * period * 1e9):
+            return k * period
+        return elapsed_ns / 1e9
 
     def __call__(self, step: ScanStep) -> StepOutput:
         if self._ekf is not None:
@@ -177,11 +192,9 @@ class ReplayPipeline:
             self.progress, step.t_ns,
         )  # fmt: skip
         if self.recovery is not None:  # as Episode.act: the controller chose, a recovery drives
-            if self._t0_ns is None:
-                self._t0_ns = step.t_ns
             goal = goal_in_body(pose, step.goal)
             self.last_recovery = self.recovery.command(
-                (step.t_ns - self._t0_ns) / 1e9, tuple(pose), points, (goal[0], goal[1]),
+                self.recovery_clock(step.t_ns), tuple(pose), points, (goal[0], goal[1]),
                 tuple(velocity),
             )  # fmt: skip
             if self.last_recovery is not None:

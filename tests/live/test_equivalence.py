@@ -15,10 +15,11 @@ import pytest
 
 pytest.importorskip("kachaka_api", reason="the robot extra is not installed")
 
-from d3dwa_bullet.episode import run_episode  # noqa: E402
+from d3dwa_bullet.episode import EpisodeConfig, run_episode  # noqa: E402
 from d3dwa_bullet.evaluation.jobs import make_noise  # noqa: E402
 from d3dwa_bullet.learning.agents.onnx_export import export_onnx  # noqa: E402
 from d3dwa_bullet.methods import make_controller  # noqa: E402
+from d3dwa_bullet.params import recovery_params  # noqa: E402
 from d3dwa_bullet.resources import policies_dir  # noqa: E402
 from d3dwa_bullet.world.registry import load_world  # noqa: E402
 from tests.support.cli import run  # noqa: E402
@@ -95,6 +96,23 @@ def test_an_onnx_policy_drives_the_torch_episode(capsys, serve, tmp_path):
     )
     episode = run_episode(world.with_task(time_limit=20.0), make_controller("d3dwa", checkpoint))
     assert live["steps"] == episode.steps > 10 and live["outcome"] == episode.outcome
+    sent = np.asarray(sim.received[: live["steps"]])
+    np.testing.assert_array_equal(
+        sent, np.column_stack((episode.log["v_cmd"], episode.log["w_cmd"]))
+    )
+
+
+def test_recovery_runs_on_the_episode_clock(capsys, serve):
+    """With ``--recovery nav2`` the recovery layer sees the episode's own clock (k x 0.1 s, not
+    the stamps' ns / 1e9, which differ in the last bit): on US1, where DWA III stalls and
+    recovers, every command is ``run``'s."""
+    world = load_world("US1")
+    config = EpisodeConfig(recovery=recovery_params("nav2"))
+    sim, address = serve(world, mode="lockstep")
+    live = drive_json(capsys, address, world.goal, "dwa3", "--recovery", "nav2")
+    episode = run_episode(world, make_controller("dwa3"), config=config)
+    assert (episode.log["recovery"] > 0).sum() > 5  # it did recover
+    assert live["steps"] == episode.steps and live["recovery"] == "nav2"
     sent = np.asarray(sim.received[: live["steps"]])
     np.testing.assert_array_equal(
         sent, np.column_stack((episode.log["v_cmd"], episode.log["w_cmd"]))
