@@ -77,7 +77,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--timeout", type=float, default=0.5, help="deadline of each API call, s")
     p.add_argument("--connect-timeout", type=float, default=3.0, help="s to reach the robot")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
-    p.set_defaults(func=cmd_drive, interrupted="the robot was sent a stop")
+    p.set_defaults(func=cmd_drive, interrupted="nothing was sent to the robot")
 
 
 def _seconds(value: float, option: str) -> float:
@@ -122,51 +122,55 @@ def cmd_drive(args: argparse.Namespace) -> int:
     recorder = None
     if args.record is not None:
         recorder = BagRecorder(args.record, goal=goal, overwrite=args.overwrite)
-    link = live.KachakaLink(
-        args.kachaka, timeout=args.timeout, connect_timeout=args.connect_timeout
-    )
     result = live.DriveResult()
     hook = live.DriveRecorder(recorder) if recorder is not None else None
-    period = config.sim.control_period
+    address = "the robot"
     try:
+        # the bag is opened before connecting: a bag that cannot be written costs no command
         with recorder if recorder is not None else contextlib.nullcontext():
+            link = live.KachakaLink(  # RobotLinkError: unreachable, nothing sent
+                args.kachaka, timeout=args.timeout, connect_timeout=args.connect_timeout
+            )
+            address = link.address
             try:
                 live.drive(
                     link, pipeline, settings, result=result, on_step=hook,
                     on_progress=_progress_printer(config.sim.control_hz),
                 )  # fmt: skip
             finally:
+                link.close()
                 if hook is not None and result.stopped:
                     hook.stopped()
     except KeyboardInterrupt as err:
         raise KeyboardInterrupt(_after(result, recorder)) from err
     except D3DWAError as err:
-        raise type(err)(f"{err}; {_after(result, recorder)}") from err
+        raise type(err)(f"{err}{_after(result, recorder, '; ')}") from err
     except Exception as err:  # noqa: BLE001 - any failure in the loop: one line, robot stopped
         raise D3DWAError(
-            f"drive failed: {type(err).__name__}: {err}; {_after(result, recorder)}"
+            f"drive failed: {type(err).__name__}: {err}{_after(result, recorder, '; ')}"
         ) from err
-    finally:
-        link.close()
-    summary = result.summary(args.method, link.address, period, config.recovery_name)
+    summary = result.summary(args.method, address, config.sim.control_period, config.recovery_name)
     _print_summary(summary, args.json, recorder)
     return 0
 
 
-def _after(result: Any, recorder: Any) -> str:
-    """What a run that ended early left: the stop, the steps, the bag."""
+def _after(result: Any, recorder: Any, lead: str = "") -> str:
+    """What a run that ended early left, after lead: the stop (nothing when no command was
+    ever sent, or the robot was never reached), the steps, the bag."""
     if result.stopped is None:
-        stop = "no command was sent"
+        stop = ""
     elif result.stopped:
         stop = f"the robot was stopped after {result.steps} commands"
     else:
         stop = f"the stop after {result.steps} commands was not acknowledged (connection lost)"
-    if recorder is None:
-        return stop
-    if not recorder.counts:
-        recorder.discard()
-        return f"{stop}; no bag written"
-    return f"{stop}; {recorder.path} keeps {sum(recorder.counts.values())} messages"
+    parts = [stop] if stop else []
+    if recorder is not None:
+        if recorder.counts:
+            parts.append(f"{recorder.path} keeps {sum(recorder.counts.values())} messages")
+        else:
+            recorder.discard()
+            parts.append("no bag written")
+    return lead + "; ".join(parts) if parts else ""
 
 
 def _progress_printer(every: int):

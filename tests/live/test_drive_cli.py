@@ -40,11 +40,13 @@ def stop_was_sent(sim) -> bool:
     return bool(sim.requests) and sim.requests[-1][:2] == (0.0, 0.0)
 
 
-def test_unreachable_robot_is_one_line_and_nothing_sent(capsys):
+def test_unreachable_robot_is_one_line_and_nothing_sent(capsys, tmp_path):
     port = free_port()
-    line = refused(capsys, *drive_args(f"127.0.0.1:{port}", "--connect-timeout", "0.5"))
+    bag = tmp_path / "never"
+    args = drive_args(f"127.0.0.1:{port}", "--connect-timeout", "0.5", "--record", str(bag))
+    line = refused(capsys, *args)
     assert f"cannot reach a Kachaka at 127.0.0.1:{port} within 0.5 s" in line
-    assert "nothing was sent" in line
+    assert line.endswith("nothing was sent; no bag written") and not bag.exists()
 
 
 def test_another_api_version_is_refused_with_a_stop(capsys, serve):
