@@ -44,6 +44,7 @@ import numpy as np
 from d3dwa_bullet.episode import (
     Episode,
     EpisodeConfig,
+    make_recovery,
     observation_of,
     plan_from,
     recovery_result,
@@ -56,7 +57,7 @@ from d3dwa_bullet.methods import Controller, make_controller
 from d3dwa_bullet.planning.observation import goal_in_body
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult
 from d3dwa_bullet.planning.progress import ProgressObserver, make_observer, observation_layout
-from d3dwa_bullet.planning.recovery import Recovery, RecoveryCommand
+from d3dwa_bullet.planning.recovery import RecoveryCommand
 from d3dwa_bullet.sim.estimator import EstimatorConfig, PoseEstimator
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.world.model import World
@@ -150,14 +151,7 @@ class ReplayPipeline:
         self._ekf = _EkfEstimate(estimator_config) if estimator == "ekf" else None
         self.progress = make_observer(controller.observation)
         self.observation_layout = observation_layout(controller.observation)
-        self.recovery = (
-            Recovery(
-                config.recovery, config.planner, config.sim.control_period,
-                config.lidar.mount_x, config.lidar.fov,
-            )
-            if config.recovery is not None
-            else None
-        )  # fmt: skip
+        self.recovery = make_recovery(config)
         """The recovery layer around the controller, as ``Episode`` runs it (None: the paper's
         stack), on :meth:`recovery_clock`."""
         self.last_recovery: RecoveryCommand | None = None
