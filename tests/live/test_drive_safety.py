@@ -117,3 +117,27 @@ def test_the_end_of_the_episode_stops_the_robot(serve):
     result = run_drive(address, DriveResult(), time_limit=1.0)
     assert result.outcome == "timeout" and result.steps == 10 and result.stopped
     assert sim.requests[-1][:2] == (0.0, 0.0) and len(sim.received) == 11
+
+
+class HangingScan(SimulatedKachaka):
+    """A robot whose scan call stops answering after ``hang_after`` snapshots."""
+
+    hang_after = 5
+
+    def GetRosLaserScan(self, request, context):  # noqa: N802
+        if self.cursor > self.hang_after:
+            time.sleep(1.0)  # past the client's deadline
+        return super().GetRosLaserScan(request, context)
+
+
+def test_a_call_past_its_deadline_stops_the_robot(serve):
+    sim, address = serve(load_world("R1"), kind=HangingScan, mode="lockstep")
+    result = DriveResult()
+    link = KachakaLink(address, timeout=0.3)
+    pipeline = ReplayPipeline(make_controller("dwa3"))
+    with pytest.raises(RobotLinkError, match="GetRosLaserScan got no answer in time"):
+        drive(
+            link, pipeline, DriveSettings((3.0, 0.0), lockstep=True, watchdog_s=60), result=result
+        )
+    link.close()
+    assert result.steps == 5 and result.stopped and sim.received[-1] == (0.0, 0.0)

@@ -117,3 +117,14 @@ def test_recovery_runs_on_the_episode_clock(capsys, serve):
     np.testing.assert_array_equal(
         sent, np.column_stack((episode.log["v_cmd"], episode.log["w_cmd"]))
     )
+
+
+def test_the_ekf_estimator_drives_on_wheel_odometry_and_imu(capsys, serve):
+    """``--estimator ekf`` re-fuses the served wheel odometry and gyro (no pose fixes), as
+    ``replay --estimator ekf``: not bit-exact with ``run``, but it reaches the goal."""
+    world = load_world("R1")
+    sim, address = serve(world, mode="lockstep")
+    live = drive_json(capsys, address, world.goal, "dwa3", "--estimator", "ekf")
+    assert live["outcome"] == "goal"
+    true_end = np.asarray(sim.truth[live["steps"]][:2])
+    assert np.hypot(*(true_end - np.asarray(world.goal))) < 0.2
