@@ -59,8 +59,13 @@ def test_every_seed_trains_into_its_folder_and_resumes(tiny: str, tmp_path: Path
     assert any(not torch.equal(w0[k], w2[k]) for k in w0)  # the seeds really differ
     with pytest.raises(ConfigError, match="already holds a training run"):
         train_seeds(config, out, [0, 2], progress=False)
-    again = train_seeds(config, out, [0, 1, 2], resume=True, progress=False)
+    again = train_seeds(config, out, [0, 1, 2], resume=True, export=export, progress=False)
     assert [o.status for o in again] == ["skipped", "done", "skipped"]
+    # a finished seed is exported again over its own export (summary.json included)
+    assert [o.exported for o in again] == [export / f"seed-{k}" for k in (0, 1, 2)]
+    assert _weights(export / "seed-0").keys() == w0.keys()
+    assert all(torch.equal(_weights(export / "seed-0")[k], w0[k]) for k in w0)
+    assert json.loads((export / "seed-1" / "summary.json").read_text())["status"] == "done"
 
 
 def test_a_failing_seed_is_reported_and_the_others_kept(

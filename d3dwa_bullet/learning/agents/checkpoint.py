@@ -61,13 +61,15 @@ WEIGHTS_FILE = "weights.pt"
 TABLE_FILE = "table.npy"
 CONFIG_FILE = "config.json"
 CURVE_FILE = "learning_curve.png"
+SUMMARY_FILE = "summary.json"
+"""A training run's summary; an exported policy carries it (counters, evaluations, wall time)."""
 TRAINING_STATE_FILE = "training_state.json"
 TRAINING_TENSORS_FILE = "training_state.pt"
 REPLAY_FILE = "replay.npz"
 _DATA_FILES = {"d3qn": WEIGHTS_FILE, "dqdwa": TABLE_FILE}
 #: Files a checkpoint may carry besides the policy (see module docstring).
 EXTRA_FILES = frozenset(
-    {CONFIG_FILE, CURVE_FILE, TRAINING_STATE_FILE, TRAINING_TENSORS_FILE, REPLAY_FILE}
+    {CONFIG_FILE, CURVE_FILE, SUMMARY_FILE, TRAINING_STATE_FILE, TRAINING_TENSORS_FILE, REPLAY_FILE}
 )
 _CHECKPOINT_FILES = {META_FILE, WEIGHTS_FILE, TABLE_FILE} | EXTRA_FILES
 

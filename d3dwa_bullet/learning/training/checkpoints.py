@@ -21,6 +21,7 @@ from d3dwa_bullet.errors import TrainingError
 from d3dwa_bullet.learning.agents.checkpoint import (
     CONFIG_FILE,
     CURVE_FILE,
+    SUMMARY_FILE,
     Agent,
     load_checkpoint,
     save_checkpoint,
@@ -114,12 +115,14 @@ def save_policy(
 def export_policy(
     run_dir: str | os.PathLike[str], dest: str | os.PathLike[str], which: str = "best"
 ) -> Path:
-    """Copy a run's policy (checkpoints/<which>) to ``dest`` with config.json and the
-    learning curve, without any training state (what ``policies/<method>/`` holds)."""
+    """Copy a run's policy (checkpoints/<which>) to ``dest`` with config.json, the learning
+    curve and the run's summary, without any training state (what ``policies/<method>/`` holds)."""
     run = Path(run_dir)
     src = checkpoint_dir(run, which)
     agent, meta = load_checkpoint(src, expected_layout=None)  # copied as it is
     extra: dict[str, Any] = {CONFIG_FILE: run / CONFIG_FILE}
     if (run / CURVE_FILE).exists():
         extra[CURVE_FILE] = run / CURVE_FILE
+    if (run / SUMMARY_FILE).exists():  # the run's counters, evaluations and wall time
+        extra[SUMMARY_FILE] = run / SUMMARY_FILE
     return save_checkpoint(dest, agent, meta["metadata"], method=meta["method"], extra_files=extra)

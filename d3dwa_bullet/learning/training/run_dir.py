@@ -35,7 +35,7 @@ from typing import Any
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.io import atomic_write_text
-from d3dwa_bullet.learning.agents.checkpoint import CONFIG_FILE, META_FILE
+from d3dwa_bullet.learning.agents.checkpoint import CONFIG_FILE, META_FILE, SUMMARY_FILE
 from d3dwa_bullet.learning.training.config import (
     TrainConfig,
     check_selection_rule,
@@ -45,7 +45,6 @@ from d3dwa_bullet.learning.training.config import (
 RUN_FILE = "run.json"
 EPISODES_FILE = "episodes.csv"
 METRICS_FILE = "metrics.jsonl"
-SUMMARY_FILE = "summary.json"
 TENSORBOARD_DIR = "tb"
 CHECKPOINTS_DIR = "checkpoints"
 POLICY_DIR = "policy"

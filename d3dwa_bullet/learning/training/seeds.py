@@ -29,7 +29,6 @@ from typing import Any
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import BusyError, ConfigError, D3DWAError, TrainingError
 from d3dwa_bullet.evaluation.backends import check_address, ray_session
-from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.learning.training.checkpoints import export_policy
 from d3dwa_bullet.learning.training.config import TrainConfig, check_selection_rule
 from d3dwa_bullet.learning.training.interrupt import StopOnInterrupt
@@ -148,10 +147,11 @@ def _finish(
 ) -> SeedOutcome:
     """Export a finished seed (policy + config + curve + summary) and report it."""
     if export is not None and outcome.status in ("done", "skipped"):
-        dest = export_policy(outcome.out, seed_dir(Path(export), outcome.seed), config.keep)
-        # the run's summary travels with the policy (counters, evaluations, wall time)
-        atomic_write_text(dest / SUMMARY_FILE, (outcome.out / SUMMARY_FILE).read_text())
-        outcome.exported = dest
+        # the run's summary travels with the policy, in the same atomic write (a resumed
+        # --seeds run exports a finished seed again over its own export)
+        outcome.exported = export_policy(
+            outcome.out, seed_dir(Path(export), outcome.seed), config.keep
+        )
     if on_seed is not None:
         on_seed(outcome)
     return outcome
