@@ -73,6 +73,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="the robot advances one control period per command (`d3dwa serve --lockstep`): "
         "do not pace the loop by the wall clock",
     )  # fmt: skip
+    p.add_argument(
+        "--stale", type=float, metavar="S",
+        help="refuse a scan or odometry older than S seconds (default: two control periods)",
+    )  # fmt: skip
     p.add_argument("--watchdog", type=float, default=0.5, help="stop if a step takes longer, s")
     p.add_argument("--timeout", type=float, default=0.5, help="deadline of each API call, s")
     p.add_argument("--connect-timeout", type=float, default=3.0, help="s to reach the robot")
@@ -94,9 +98,10 @@ def cmd_drive(args: argparse.Namespace) -> int:
         raise ConfigError(f"--speed-limit must be two numbers > 0, got {args.speed_limit!r}")
     for option, value in (
         ("--watchdog", args.watchdog), ("--timeout", args.timeout),
-        ("--connect-timeout", args.connect_timeout),
+        ("--connect-timeout", args.connect_timeout), ("--stale", args.stale),
     ):  # fmt: skip
-        _seconds(value, option)
+        if value is not None:
+            _seconds(value, option)
     time_limit = time_limit_arg(args.time_limit) or TerminationParams().time_limit
     config = EpisodeConfig(recovery=recovery_arg(args, SimParams().control_period))
     check_method(args.method)
@@ -114,7 +119,7 @@ def cmd_drive(args: argparse.Namespace) -> int:
 
     settings = live.DriveSettings(
         goal=goal, time_limit=time_limit, limits=live.SpeedLimits(*limits),
-        watchdog_s=args.watchdog, lockstep=args.lockstep,
+        stale_s=args.stale, watchdog_s=args.watchdog, lockstep=args.lockstep,
     )  # fmt: skip
     controller = make_controller(args.method, args.policy, onnx=args.onnx)
     pipeline = ReplayPipeline(controller, estimator=args.estimator, config=config)

@@ -148,6 +148,7 @@ def test_refusals_come_before_the_heavy_imports():
         ' ["drive", "--kachaka", "h", "--goal", "1,2", "--method", "nope"],'
         ' ["drive", "--kachaka", "h", "--goal", "1,2", "--method", "dwa3",'
         ' "--speed-limit", "0,1"],'
+        ' ["drive", "--kachaka", "h", "--goal", "1,2", "--method", "dwa3", "--stale", "0"],'
         ' ["serve", "--world", "R1", "--noise", "nope"]):\n'
         "    assert main(argv) == 2\n"
         "print([m for m in ('torch', 'pybullet', 'numba', 'grpc') if m in sys.modules])\n"
@@ -157,7 +158,8 @@ def test_refusals_come_before_the_heavy_imports():
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"
-    assert done.stderr.count("d3dwa: error: ") == 4
+    assert done.stderr.count("d3dwa: error: ") == 5
+    assert "--stale must be a number of seconds > 0, got 0" in done.stderr
 
 
 def test_drive_with_an_onnx_policy_never_imports_torch(tmp_path):
