@@ -91,6 +91,16 @@ class EpisodeResult:
         return row
 
 
+def make_recovery(config: EpisodeConfig) -> Recovery | None:
+    """The recovery layer of a config (None on the paper's stack): one per episode or replay."""
+    if config.recovery is None:
+        return None
+    return Recovery(
+        config.recovery, config.planner, config.sim.control_period,
+        config.lidar.mount_x, config.lidar.fov,
+    )  # fmt: skip
+
+
 def observation_of(pose, velocity, goal, points: np.ndarray, config: EpisodeConfig) -> np.ndarray:
     """The observation from an estimate: the one function the simulator and bag replay share.
 
@@ -163,14 +173,7 @@ class Episode:
         """Seconds since the true pose last made progress (left a PROGRESS_RADIUS circle), at
         the last observe(): what the stall penalty of the reward reads."""
         self.last_plan = None
-        self.recovery = (
-            Recovery(
-                config.recovery, config.planner, config.sim.control_period,
-                config.lidar.mount_x, config.lidar.fov,
-            )
-            if config.recovery is not None
-            else None
-        )  # fmt: skip
+        self.recovery = make_recovery(config)
         """The recovery layer around the controller (None on the paper's stack)."""
         self.last_recovery: RecoveryCommand | None = None
         """What the recovery layer drove at the last act() (None: the planner drove)."""

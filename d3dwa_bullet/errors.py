@@ -58,3 +58,7 @@ class BackendError(D3DWAError, RuntimeError):
 
 class BusyError(D3DWAError, RuntimeError):
     """An output directory is being written by another running command (it holds the lock)."""
+
+
+class RobotLinkError(D3DWAError, RuntimeError):
+    """The robot's API cannot be reached, answers wrongly or too late, or serves stale data."""

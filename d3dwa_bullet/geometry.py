@@ -115,3 +115,15 @@ def circle_polygon(center: Sequence[float], radius: float, segments: int) -> np.
     circle."""
     a = 2 * np.pi * np.arange(segments) / segments
     return np.column_stack((center[0] + radius * np.cos(a), center[1] + radius * np.sin(a)))
+
+
+def body_clearance_to_points(points: np.ndarray) -> float:
+    """Smallest distance from Kachaka's body box to points, m: 0 for a point inside the box,
+    inf when there is none. points: (M, 2) float64, m, base_link (the box is axis-aligned
+    there)."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    if pts.size == 0:
+        return math.inf
+    dx = np.maximum(np.abs(pts[:, 0] - BODY_CENTER_X) - BODY_HALF_LENGTH, 0.0)
+    dy = np.maximum(np.abs(pts[:, 1]) - BODY_HALF_WIDTH, 0.0)
+    return float(np.hypot(dx, dy).min())

@@ -41,13 +41,23 @@ from typing import Any
 
 import numpy as np
 
-from d3dwa_bullet.episode import Episode, EpisodeConfig, observation_of, plan_from, run_episode
+from d3dwa_bullet.episode import (
+    Episode,
+    EpisodeConfig,
+    make_recovery,
+    observation_of,
+    plan_from,
+    recovery_result,
+    run_episode,
+)
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.geometry import wrap_angle_modular
 from d3dwa_bullet.methods import Controller, make_controller
+from d3dwa_bullet.planning.observation import goal_in_body
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult
 from d3dwa_bullet.planning.progress import ProgressObserver, make_observer, observation_layout
+from d3dwa_bullet.planning.recovery import RecoveryCommand
 from d3dwa_bullet.sim.estimator import EstimatorConfig, PoseEstimator
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.world.model import World
@@ -141,6 +151,27 @@ class ReplayPipeline:
         self._ekf = _EkfEstimate(estimator_config) if estimator == "ekf" else None
         self.progress = make_observer(controller.observation)
         self.observation_layout = observation_layout(controller.observation)
+        self.recovery = make_recovery(config)
+        """The recovery layer around the controller, as ``Episode`` runs it (None: the paper's
+        stack), on :meth:`recovery_clock`."""
+        self.last_recovery: RecoveryCommand | None = None
+        """What the recovery layer drove at the last step (None: the planner drove)."""
+        self._t0_ns: int | None = None
+
+    def recovery_clock(self, t_ns: int) -> float:
+        """Seconds since the first step's stamp. On the control grid (stamps k periods apart to
+        the ns, as a simulated robot's are) it is k x period, the very float ``Episode`` gives
+        the recovery layer (its step count x period), where the ns difference / 1e9 differs in
+        the last bit for about a third of all k and can move a progress window's end by a
+        step; off the grid (a real robot's stamps), the difference itself."""
+        if self._t0_ns is None:
+            self._t0_ns = t_ns
+        elapsed_ns = t_ns - self._t0_ns
+        period = self.config.sim.control_period
+        k = round(elapsed_ns / (period * 1e9))
+        if elapsed_ns == round(k * period * 1e9):
+            return k * period
+        return elapsed_ns / 1e9
 
     def __call__(self, step: ScanStep) -> StepOutput:
         if self._ekf is not None:
@@ -149,10 +180,19 @@ class ReplayPipeline:
             pose, velocity = step.odom_pose, step.odom_twist
         if not (np.isfinite(pose).all() and np.isfinite(velocity).all()):
             raise SkipScan(SKIP_NON_FINITE_ESTIMATE)
+        points = step.points()
         obs, index, action, result = decide(
-            pose, velocity, step.goal, step.points(), self.controller, self.config,
+            pose, velocity, step.goal, points, self.controller, self.config,
             self.progress, step.t_ns,
         )  # fmt: skip
+        if self.recovery is not None:  # as Episode.act: the controller chose, a recovery drives
+            goal = goal_in_body(pose, step.goal)
+            self.last_recovery = self.recovery.command(
+                self.recovery_clock(step.t_ns), tuple(pose), points, (goal[0], goal[1]),
+                tuple(velocity),
+            )  # fmt: skip
+            if self.last_recovery is not None:
+                result = recovery_result(self.last_recovery)
         return StepOutput(
             observation=obs,
             pose=pose,
@@ -179,7 +219,7 @@ def make_step_fn(
 # -- recording ---------------------------------------------------------------------------
 
 
-class _GyroTap:
+class GyroTap:
     """Keeps every gyro reading a NoiseModel hands to the simulator's EKF, in call order.
 
     The Simulator fuses its gyro reading without storing it; wrapping this episode's own
@@ -228,7 +268,7 @@ class EpisodeRecorder:
         recorder: Any,
         world: World,
         config: EpisodeConfig,
-        tap: _GyroTap | None,
+        tap: GyroTap | None,
         start_ns: int = DEFAULT_START_NS,
     ) -> None:
         self.recorder, self.world, self.config, self.tap = recorder, world, config, tap
@@ -320,7 +360,7 @@ def record_episode(
         )
     controller = make_controller(method, policy)
     noise_model = make_noise(noise, seed)
-    tap = _GyroTap(noise_model) if noise_model is not None else None
+    tap = GyroTap(noise_model) if noise_model is not None else None
     hook = EpisodeRecorder(recorder, w, config, tap, start_ns)
     result = run_episode(
         w, controller, seed=seed, noise=noise_model, noise_name=str(noise), config=config,

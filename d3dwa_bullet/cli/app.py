@@ -10,9 +10,12 @@
     d3dwa replay / record / compare-scans ROS bags (see d3dwa_bullet.cli.transfer)
     d3dwa calibrate BAG... --out my_robot.yaml   fit a noise profile to your own bags
     d3dwa export --onnx DIR               trained D3QN policies -> ONNX files (run --onnx FILE)
+    d3dwa serve --world R1 --lockstep     a simulated Kachaka behind the Kachaka API (gRPC)
+    d3dwa drive --kachaka HOST --goal X,Y --method dwa3   drive a robot through that API
 
 Each command is one module of this package (``worlds``, ``run``, ``eval``, ``sweep``,
-``report``, ``compare``, ``train``, ``bags``, ``calibrate``, ``export``) with ``add_parser(sub)`` and its ``cmd_*(args)``; shared
+``report``, ``compare``, ``train``, ``bags``, ``calibrate``, ``export``, ``drive``, ``serve``)
+with ``add_parser(sub)`` and its ``cmd_*(args)``; shared
 options are in ``options``. A command imports the simulator, torch or matplotlib only when
 it runs, so ``d3dwa --help`` and ``d3dwa worlds`` start quickly.
 
@@ -35,10 +38,12 @@ from collections.abc import Sequence
 import d3dwa_bullet.cli.bags as bags_commands
 import d3dwa_bullet.cli.calibrate as calibrate_command
 import d3dwa_bullet.cli.compare as compare_command
+import d3dwa_bullet.cli.drive as drive_command
 import d3dwa_bullet.cli.eval as eval_command
 import d3dwa_bullet.cli.export as export_command
 import d3dwa_bullet.cli.report as report_command
 import d3dwa_bullet.cli.run as run_command
+import d3dwa_bullet.cli.serve as serve_command
 import d3dwa_bullet.cli.sweep as sweep_command
 import d3dwa_bullet.cli.train as train_command
 import d3dwa_bullet.cli.worlds as worlds_command
@@ -56,6 +61,8 @@ COMMANDS = (
     bags_commands,
     calibrate_command,
     export_command,
+    drive_command,
+    serve_command,
 )
 """Modules with ``add_parser(sub)``, in the order of ``d3dwa --help``."""
 

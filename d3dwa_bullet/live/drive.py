@@ -1,0 +1,287 @@
+"""The closed loop on a robot API (``d3dwa drive``, docs/design.md#live).
+
+Every control period: read the scan and odometry (+ wheel odometry and IMU where served),
+judge the episode, then the very decision of ``d3dwa replay`` and ``d3dwa run``
+(:class:`transfer.sim_bridge.ReplayPipeline`: estimate -> observation -> controller ->
+planner, and the recovery layer where asked), clamp the command to the robot's limits and
+send it. The goal is in the odometry frame the robot reports, as ``replay`` takes it.
+
+The episode is judged on what the robot reports, as a robot can only: collision when the
+smallest valid scan range is below the collision distance, goal when the odometry pose is
+within the goal tolerance, timeout after ``time_limit * control_hz`` commands. Every way out
+(those three, a stale or missing reading, a gRPC error or deadline, any exception, Ctrl-C,
+the watchdog) ends in ``set_robot_stop``.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from d3dwa_bullet.episode import EpisodeConfig, plan_from
+from d3dwa_bullet.errors import ConfigError, ScanError
+from d3dwa_bullet.evaluation.metrics import posture_displacement, trajectory_length
+from d3dwa_bullet.geometry import body_clearance_to_points, wrap_angle
+from d3dwa_bullet.live.link import KachakaLink, Reading
+from d3dwa_bullet.live.safety import Freshness, SpeedLimits, Watchdog, deferred_interrupts
+from d3dwa_bullet.planning.observation import sector_ranges
+from d3dwa_bullet.planning.planner import PlannerAction
+from d3dwa_bullet.sim.scan import LaserScan, Pose2D, scan_points_body
+from transfer.replay_step import ScanStep, SkipScan, StepOutput
+from transfer.sim_bridge import ReplayPipeline
+
+
+@dataclass(frozen=True)
+class DriveSettings:
+    """One live run: goal (x, y) m in the odometry frame, and its limits."""
+
+    goal: tuple[float, float]
+    time_limit: float = 60.0
+    """s; the run ends after time_limit * control_hz commands (as an episode's steps)."""
+    limits: SpeedLimits = SpeedLimits()
+    """Every command is clamped to these (default: the Kachaka API's)."""
+    stale_s: float | None = None
+    """A reading older than this is refused, s (None: two control periods)."""
+    watchdog_s: float = 0.5
+    """The watchdog stops the robot when a loop iteration takes longer than this, s."""
+    lockstep: bool = False
+    """The robot advances one period per command (``d3dwa serve --lockstep``): no pacing."""
+
+
+@dataclass
+class DriveResult:
+    """What a live run did, filled in as it goes (so a failed run still tells)."""
+
+    outcome: str | None = None
+    steps: int = 0
+    poses: list[tuple[float, float, float]] = field(default_factory=list)
+    """The odometry pose at every reading, the last one included."""
+    commands: list[tuple[float, float]] = field(default_factory=list)
+    """Every command sent (clamped), (v m/s, w rad/s)."""
+    latencies: list[float] = field(default_factory=list)
+    """Per step, s: from the read going out to the command acknowledged."""
+    clearance: float = math.inf
+    """Smallest distance from the body box to a valid scan point, m."""
+    stopped: bool | None = None
+    """Whether the final stop was acknowledged (False: the robot was unreachable)."""
+
+    def latency_ms(self, q: float) -> float | None:
+        return float(np.percentile(self.latencies, q) * 1e3) if self.latencies else None
+
+    def summary(self, method: str, robot: str, control_period: float, recovery: str = "none"):
+        """The row of ``d3dwa run``'s summary, judged on the robot's odometry and scan
+        (world: the robot; seed and noise: none that drive knows), plus the robot's address,
+        whether the stop was acknowledged, and loop latency p50 / p99 (ms)."""
+        poses = np.asarray(self.poses, dtype=np.float64).reshape(-1, 3)
+        row: dict[str, Any] = {
+            "world": "live",
+            "method": method,
+            "seed": None,
+            "noise": "robot",
+            "outcome": self.outcome or "stopped",
+            "time_s": round(self.steps * control_period, 3),
+            "tl_m": round(trajectory_length(poses[:, :2]), 4) if len(poses) else 0.0,
+            "pd_rad": round(posture_displacement(poses[:, 2]), 4) if len(poses) else 0.0,
+            "min_clearance_m": round(self.clearance, 4),
+            "steps": self.steps,
+        }
+        if recovery != "none":
+            row["recovery"] = recovery
+        p50, p99 = self.latency_ms(50), self.latency_ms(99)
+        return row | {
+            "robot": robot,
+            "stop_acknowledged": self.stopped,
+            "latency_p50_ms": None if p50 is None else round(p50, 2),
+            "latency_p99_ms": None if p99 is None else round(p99, 2),
+        }
+
+
+#: Called after each command: (reading, decision, command sent).
+StepHook = Callable[[Reading, StepOutput, tuple[float, float]], None]
+#: Called after each command: (step, distance to goal m, command, loop latency s).
+ProgressHook = Callable[[int, float, tuple[float, float], float], None]
+
+
+def check_scan_layout(scan: LaserScan, mount: Pose2D, config: EpisodeConfig) -> None:
+    """Refuse a scan whose beams leave a sector of the observation without a beam.
+
+    The observation reads the smallest range per sector of base_link bearing, so any beam
+    layout (count, spacing, field of view, a lidar turned on its mount) maps into the
+    policy's K sectors; one that leaves a sector empty would make it read "free" forever.
+    """
+    obs = config.observation
+    reach = min(scan.range_max, obs.d_max)
+    probe = replace(scan, ranges=np.full(scan.ranges.size, reach), range_min=0.0)
+    empty = np.flatnonzero(~np.isfinite(sector_ranges(scan_points_body(probe, mount), obs)))
+    if empty.size:
+        angles = np.degrees(scan.angles + mount.yaw)
+        raise ScanError(
+            f"the robot's scan ({scan.ranges.size} beams, {angles.min():.1f} to "
+            f"{angles.max():.1f} deg) leaves observation sector(s) "
+            f"{', '.join(map(str, empty))} of {obs.sectors} (over {np.degrees(obs.fov):.0f} deg) "
+            "without a beam: they would read free space; refusing to drive"
+        )
+
+
+def check_goal_on_map(link: KachakaLink, goal: tuple[float, float], odom: Any) -> None:
+    """Refuse a goal outside the robot's map (skipped where the robot serves no map).
+
+    The goal is in the odometry frame; the map's pose of the robot and its odometry pose at
+    the same moment give the odometry frame on the map.
+    """
+    grid = link.map()
+    if grid is None or not grid.width or not grid.resolution:
+        return
+    mx, my, mt = link.robot_pose()
+    ox, oy, ot = odom.pose
+    turn = wrap_angle(mt - ot)
+    c, s = math.cos(turn), math.sin(turn)
+    dx, dy = goal[0] - ox, goal[1] - oy
+    gx, gy = mx + c * dx - s * dy, my + s * dx + c * dy
+    x0, y0 = grid.origin.x, grid.origin.y
+    x1, y1 = x0 + grid.width * grid.resolution, y0 + grid.height * grid.resolution
+    if not (x0 <= gx <= x1 and y0 <= gy <= y1):
+        raise ConfigError(
+            f"--goal {goal[0]:g},{goal[1]:g} lies outside the robot's map {grid.name!r} "
+            f"(at ({gx:.2f}, {gy:.2f}) on it; the map spans x {x0:.2f}..{x1:.2f}, "
+            f"y {y0:.2f}..{y1:.2f} m)"
+        )
+
+
+def warm_up(pipeline: ReplayPipeline) -> None:
+    """Run the controller and the planner once on a dummy input, before the robot is
+    involved: the planner's first call loads its compiled kernels, which the watchdog would
+    take for a stall."""
+    config = pipeline.config
+    obs_dim = len(pipeline.observation_layout)
+    pipeline.controller(np.zeros(obs_dim))
+    action = PlannerAction(1.0, 1.0, 1.0, 2.0)
+    plan_from((0.0, 0.0, 0.0), (0.0, 0.0), (1.0, 0.0), np.zeros((0, 2)), action, config)
+
+
+def drive(
+    link: KachakaLink,
+    pipeline: ReplayPipeline,
+    settings: DriveSettings,
+    *,
+    result: DriveResult | None = None,
+    on_step: StepHook | None = None,
+    on_progress: ProgressHook | None = None,
+) -> DriveResult:
+    """Drive until goal, collision or timeout; stop the robot on every way out.
+
+    Checks before the first command: the robot's API version, that it serves a scan and
+    odometry, the scan's beam layout (:func:`check_scan_layout`) and the goal against its
+    map (:func:`check_goal_on_map`). result: filled in place (pass one to keep what a run
+    that raises did). RobotLinkError on a lost, late or stale robot; the exception of any
+    other failure, after the stop.
+    """
+    out = result if result is not None else DriveResult()
+    watchdog = Watchdog(settings.watchdog_s, link.stop)
+    with deferred_interrupts() as interrupted:
+        try:
+            _loop(link, pipeline, settings, out, watchdog, interrupted, on_step, on_progress)
+        finally:
+            watchdog.close()
+            out.stopped = link.stop()
+    return out
+
+
+def _loop(
+    link: KachakaLink,
+    pipeline: ReplayPipeline,
+    settings: DriveSettings,
+    out: DriveResult,
+    watchdog: Watchdog,
+    interrupted: threading.Event,
+    on_step: StepHook | None,
+    on_progress: ProgressHook | None,
+) -> None:
+    """The checks, then steps until the episode ends (``out.outcome``) or an error raises."""
+    config = pipeline.config
+    period = config.sim.control_period
+    term = config.termination
+    mount = config.lidar.mount
+    goal = np.asarray(settings.goal, dtype=np.float64)
+    max_steps = int(round(settings.time_limit * config.sim.control_hz))
+    fresh = Freshness(settings.stale_s if settings.stale_s is not None else 2 * period)
+    link.check_version()
+    first = link.read()
+    check_scan_layout(first.scan, mount, config)
+    check_goal_on_map(link, settings.goal, first.odometry)
+    watchdog.start()
+    deadline = time.monotonic()
+    reading: Reading | None = first
+    while not interrupted.is_set():
+        started = time.perf_counter()
+        if reading is None:
+            reading = link.read()
+        stamps = {"scan": reading.scan.stamp_ns, "odometry": reading.odometry.stamp_ns}
+        fresh.check(stamps, time.monotonic(), link.address)
+        pose = reading.odometry.pose
+        out.poses.append(pose)
+        points = scan_points_body(reading.scan, mount)
+        valid = reading.scan.ranges[reading.scan.valid_mask()]
+        out.clearance = min(out.clearance, body_clearance_to_points(points))
+        distance = math.hypot(goal[0] - pose[0], goal[1] - pose[1])
+        if valid.size and valid.min() < term.collision_distance:
+            out.outcome = "collision"
+        elif distance <= term.goal_tolerance:
+            out.outcome = "goal"
+        elif out.steps >= max_steps:
+            out.outcome = "timeout"
+        if out.outcome is not None:
+            return
+        decided = _decide(pipeline, reading, mount, goal)
+        assert decided.cmd is not None
+        command = settings.limits.clamp(*decided.cmd)
+        watchdog.send(link.command, *command)
+        out.steps += 1
+        out.commands.append(command)
+        latency = time.perf_counter() - started
+        out.latencies.append(latency)
+        watchdog.beat()
+        if on_step is not None:
+            on_step(reading, decided, command)
+        if on_progress is not None:
+            on_progress(out.steps, distance, command, latency)
+        reading = None
+        if not settings.lockstep:
+            deadline = _pace(deadline, period, interrupted)
+    raise KeyboardInterrupt
+
+
+def _decide(pipeline: ReplayPipeline, reading: Reading, mount: Pose2D, goal: np.ndarray):
+    """The decision of one reading: ``ReplayPipeline`` on the step a bag replay would see."""
+    wheel = reading.wheel
+    step = ScanStep(
+        t_ns=reading.scan.stamp_ns,
+        scan=reading.scan,
+        mount=mount,
+        odom_pose=np.asarray(reading.odometry.pose, dtype=np.float64),
+        odom_twist=np.asarray(reading.odometry.twist, dtype=np.float64),
+        goal=goal,
+        wheel_twist=None if wheel is None else np.asarray(wheel.twist, dtype=np.float64),
+        imu_w=reading.imu_w,
+    )
+    try:
+        return pipeline(step)
+    except SkipScan as err:
+        raise ScanError(f"cannot decide at stamp {step.t_ns} ns: {err.reason}") from err
+
+
+def _pace(deadline: float, period: float, interrupted: threading.Event) -> float:
+    """Sleep until the next control tick (or an interrupt); a late loop restarts its ticks
+    from now."""
+    deadline += period
+    delay = deadline - time.monotonic()
+    if delay > 0:
+        interrupted.wait(delay)
+        return deadline
+    return time.monotonic()
