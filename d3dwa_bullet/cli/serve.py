@@ -8,6 +8,8 @@ shuts down and exits 0 saying how many commands it took.
 from __future__ import annotations
 
 import argparse
+import signal
+import threading
 
 from d3dwa_bullet.cli.drive import robot_extra
 from d3dwa_bullet.cli.options import add_world_option, load_cli_world, noise_arg
@@ -56,10 +58,17 @@ def cmd_serve(args: argparse.Namespace) -> int:
         f"{args.noise}, seed {args.seed}, {args.mode}); Ctrl-C to stop",
         flush=True,
     )
+    # Ctrl-C stops the server as the banner says, also where it started with SIGINT ignored (a
+    # background job of a script): Python then installs no KeyboardInterrupt of its own.
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler) if main_thread else None
     try:
         server.wait_for_termination()
     except KeyboardInterrupt:
         pass
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
     server.stop(grace=0.5).wait()
     servicer.close()
     last = servicer.requests[-1] if servicer.requests else None

@@ -247,7 +247,7 @@ def _foreign_model() -> bytes:
         ),
         (
             lambda src: _model_with_props(src, **{METADATA_KEYS["actions"]: "{"}),
-            "is not JSON",
+            "not valid JSON",
         ),
     ],
     ids=["garbage", "foreign", "version", "signature", "actions-json"],

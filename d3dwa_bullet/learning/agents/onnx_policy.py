@@ -32,6 +32,7 @@ import numpy as np
 
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.limits import MAX_POLICY_BYTES
+from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.progress import LAYOUTS, observation_layout
 
@@ -91,12 +92,8 @@ def read_metadata(props: Mapping[str, str], where: str) -> dict[str, Any]:
         raise CheckpointError(f"{where}: metadata lacks {missing}")
 
     def parsed(field: str) -> Any:
-        try:
-            return json.loads(props[METADATA_KEYS[field]])
-        except json.JSONDecodeError as err:
-            raise CheckpointError(
-                f"{where}: metadata {METADATA_KEYS[field]} is not JSON ({err})"
-            ) from err
+        key = METADATA_KEYS[field]
+        return parse_json(props[key], CheckpointError, f"{where}: metadata {key}")
 
     kind = props[METADATA_KEYS["observation_kind"]]
     if kind not in LAYOUTS:
