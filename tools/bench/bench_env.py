@@ -26,6 +26,9 @@ from d3dwa_bullet.methods import make_controller
 from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.world.registry import load_world
 
+DEFAULT_WORLDS = ["TS1", "TS3", "H1", "R3"]
+"""The worlds of a bench run unless --worlds names others."""
+
 
 def bench(worlds: list[str], steps: int, method: str, recovery: str = "none") -> dict:
     controller = make_controller(method)
@@ -59,7 +62,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    ap.add_argument("--worlds", default="TS1,TS3,H1,R3", help="comma list of worlds")
+    ap.add_argument("--worlds", default=",".join(DEFAULT_WORLDS), help="comma list of worlds")
     ap.add_argument("--steps", type=int, default=300, help="max control steps per world")
     ap.add_argument("--method", default="dwa3")
     ap.add_argument("--repeats", type=int, default=3, help="whole runs; the median is reported")

@@ -15,6 +15,11 @@ intermediate checkpoints, with ``n_envs`` simulators (default: the config's).
 - loop_steps_per_s: env steps per second of the whole loop (what bounds a training), and
   minutes_per_250k_steps its projection to the shipped budget (without the periodic
   greedy evaluations, which ``eval_s`` in a real run's summary shows);
+- noise_path_share: the estimator's and the noise models' share of the envs' step time
+  (env/estimator + env/noise over env/step);
+- with ``--baseline``: bare_sim_steps_per_s, one bare simulator process (DWA III, no noise,
+  ``tools.bench.bench_env``) measured in this same run right after, and loop_vs_bare, the
+  loop's steps/s over it (issue 22 asks 1.5 for two envs; 2 is the limit on two cores);
 - timing_s: seconds by stage. Main process: act, env (waiting for the envs), learn,
   checkpoint, setup. Summed over the envs (worker CPU seconds): env/step and its parts
   env/physics, env/lidar, env/noise, env/estimator, env/observation, env/planner, and
@@ -33,6 +38,7 @@ from pathlib import Path
 
 from d3dwa_bullet.learning.training import load_train_config, train
 from d3dwa_bullet.resources import configs_dir
+from tools.bench import bench_env
 
 SHIPPED_BUDGET = 250_000
 
@@ -46,6 +52,9 @@ def run(steps: int = 3000, config: str | Path | None = None, n_envs: int | None 
     with tempfile.TemporaryDirectory() as tmp:
         s = train(cfg, Path(tmp) / "bench", progress=False)
     loop = s["steps_per_s"]
+    timing = s["timing_s"]
+    step = timing.get("env/step") or 0.0
+    noise_path = timing.get("env/estimator", 0.0) + timing.get("env/noise", 0.0)
     return {
         "env_steps_per_s": s["env_steps_per_s"],
         "updates_per_s": s["updates_per_s"],
@@ -56,7 +65,8 @@ def run(steps: int = 3000, config: str | Path | None = None, n_envs: int | None 
         "updates": s["train_steps"],
         "wall_time_s": s["wall_time_s"],
         "cpu_time_s": s["cpu_time_s"],
-        "timing_s": s["timing_s"],
+        "noise_path_share": round(noise_path / step, 4) if step else None,
+        "timing_s": timing,
         "method": cfg.method,
         "train_freq": getattr(cfg.agent, "train_freq", 1),
     }
@@ -67,9 +77,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--steps", type=int, default=3000, help="control steps to train")
     ap.add_argument("--config", default=str(configs_dir() / "d3dwa.yaml"))
     ap.add_argument("--n-envs", type=int, help="simulators in lock-step (default: the config's)")
+    ap.add_argument(
+        "--baseline", action="store_true", help="also time one bare simulator process (bench_env)"
+    )
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
     result = run(args.steps, args.config, args.n_envs)
+    if args.baseline:
+        bare = bench_env.bench(bench_env.DEFAULT_WORLDS, 300, "dwa3")
+        result["bare_sim_steps_per_s"] = bare["steps_per_s"]
+        result["loop_vs_bare"] = round(result["loop_steps_per_s"] / bare["steps_per_s"], 3)
     if args.json:
         print(json.dumps(result))
     else:
