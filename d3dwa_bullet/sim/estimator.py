@@ -115,7 +115,8 @@ class _UnicycleEKF(ExtendedKalmanFilter):
         H = HJacobian(self.x, *args)
         PHT = dot(self.P, H.T)
         self.S = dot(H, PHT) + R
-        self.SI = scipy.linalg.inv(self.S)
+        # a 1x1 inverse (the gyro's) is one division, the bits SciPy's inverse gives too
+        self.SI = 1.0 / self.S if self.S.shape == (1, 1) else scipy.linalg.inv(self.S)
         self.K = PHT.dot(self.SI)
         hx = Hx(self.x, *hx_args)
         self.y = residual(z, hx)
