@@ -20,14 +20,13 @@ from d3dwa_bullet.cli.options import (
 )
 from d3dwa_bullet.cli.output import check_out_file, json_text
 from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.methods import METHODS
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run one episode")
     add_world_option(p, required=True, help="world name (see `d3dwa worlds`) or a world file")
-    p.add_argument(
-        "--method", required=True, help="dwa1, dwa2, dwa3, dqdwa, d3dwa-weights, d3dwa, d3dwa-dr"
-    )
+    p.add_argument("--method", required=True, help=f"one of {', '.join(METHODS)}")
     p.add_argument("--seed", type=int, default=0)
     add_task_options(p)
     p.add_argument("--gui", action="store_true", help="open the PyBullet GUI")

@@ -11,6 +11,7 @@ from pathlib import Path
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.limits import MAX_TOTAL_STEPS, check_processes
 from d3dwa_bullet.loading import load_yaml
+from d3dwa_bullet.methods import LEARNED
 from d3dwa_bullet.resources import configs_dir
 from d3dwa_bullet.seed_dirs import parse_seeds
 
@@ -23,9 +24,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def add_train_arguments(p: argparse.ArgumentParser) -> None:
     """Options of `d3dwa train` (also used by scripts/train_randomized.py)."""
-    p.add_argument(
-        "--method", help="d3dwa, d3dwa-weights, d3dwa-dr or dqdwa (default: the config's)"
-    )
+    p.add_argument("--method", help=f"one of {', '.join(LEARNED)} (default: the config's)")
     p.add_argument(
         "--config",
         help="training config YAML (default: the shipped configs/<method>.yaml)",
