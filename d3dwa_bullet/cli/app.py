@@ -29,6 +29,8 @@ KeyboardInterrupt a command re-raises, as ``record`` does with the bag's message
 from __future__ import annotations
 
 import argparse
+import os
+import select
 import shlex
 import signal
 import sys
@@ -91,6 +93,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         kept = str(err) or getattr(args, "interrupted", "")
         print("d3dwa: interrupted" + (f"; {one_line(kept)}" if kept else ""), file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        if not _stdout_gone():
+            raise
+        return 141  # as a shell reports a command ended by SIGPIPE
     finally:
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGTERM, previous)
@@ -99,6 +105,23 @@ def main(argv: Sequence[str] | None = None) -> int:
 def one_line(message: str) -> str:
     """A message on one line: its non-blank lines joined by '; ' (most are one line already)."""
     return "; ".join(line.strip() for line in message.splitlines() if line.strip())
+
+
+def _stdout_gone() -> bool:
+    """True if stdout's reader went away (``d3dwa run ... | head -1``): the command then stops
+    quietly, as Unix tools do, and stdout is pointed at /dev/null so the interpreter's last
+    flush cannot fail again. False when stdout still has a reader (the broken pipe was
+    another), or is no file."""
+    try:
+        fd = sys.stdout.fileno()
+    except (OSError, ValueError):
+        return False
+    poller = select.poll()
+    poller.register(fd, select.POLLOUT)
+    if not any(events & select.POLLERR for _, events in poller.poll(0)):
+        return False
+    os.dup2(os.open(os.devnull, os.O_WRONLY), fd)
+    return True
 
 
 def _sigterm(signum: int, frame: object) -> None:

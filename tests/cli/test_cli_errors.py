@@ -18,6 +18,8 @@ import hashlib
 import json
 import math
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import cv2
@@ -580,3 +582,17 @@ def test_a_map_with_no_occupied_cell_is_refused_unless_allow_empty(tmp_path, cap
     assert "no obstacle could be built from this map_server world" in line
     code, _, err = run(capsys, *run_args(tmp_path / "free.yaml", "--allow-empty"))
     assert code == 0, err
+
+
+def test_a_closed_stdout_ends_the_command_quietly():
+    """`d3dwa worlds | head -0`: the reader is gone before the first line; no traceback."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "d3dwa_bullet.cli", "worlds"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert proc.stdout is not None
+    proc.stdout.close()  # long before the command has imported enough to print
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 141, err
+    assert err == b""
