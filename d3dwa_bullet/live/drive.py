@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 
 from d3dwa_bullet.episode import EpisodeConfig, plan_from
+from d3dwa_bullet.episode_metrics import posture_displacement, trajectory_length
 from d3dwa_bullet.errors import ConfigError, ScanError
-from d3dwa_bullet.evaluation.metrics import posture_displacement, trajectory_length
 from d3dwa_bullet.geometry import body_clearance_to_points, wrap_angle
 from d3dwa_bullet.live.link import KachakaLink, Reading
 from d3dwa_bullet.live.safety import Freshness, SpeedLimits, Watchdog, deferred_interrupts

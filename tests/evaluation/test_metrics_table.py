@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from d3dwa_bullet.evaluation.metrics import body_clearance, posture_displacement, trajectory_length
+from d3dwa_bullet.episode_metrics import body_clearance, posture_displacement, trajectory_length
 from d3dwa_bullet.evaluation.tables import paper_table
 from d3dwa_bullet.world.model import Box, World
 
