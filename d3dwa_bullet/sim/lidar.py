@@ -19,11 +19,9 @@ class Lidar:
     Rays are given in the lidar link's own frame (``parentObjectUniqueId`` /
     ``parentLinkIndex``), so Bullet places them from the link's current pose and the ray
     lists are built once. The lidar sits above the body, so no beam can hit the robot.
-    The beams are cast on one thread (``numThreads=1``): a scan is 481 short rays, and
-    Bullet's thread pool (``numThreads=0``, every core) cost more than it saved, most of all
-    where every core already runs a simulator (training's worker processes, ``eval``'s
-    workers): 0.89 ms against 1.23 ms a scan, measured side by side (docs/benchmarks.md).
-    Each beam's result does not depend on the threading.
+    ``numThreads=0`` lets Bullet spread the beams over the cores; each beam's result does not
+    depend on the threading. One thread was tried and measured (docs/benchmarks.md): 21 %
+    slower for one simulator on an idle machine and no faster for training's two envs.
     """
 
     def __init__(self, client: int, robot: int, link: int, params: LidarParams = LidarParams()):
@@ -38,7 +36,7 @@ class Lidar:
         """True ranges at the link's current pose: (beams,) float64, m; +inf where no hit."""
         hits = p.rayTestBatch(
             self._from, self._to, parentObjectUniqueId=self.robot, parentLinkIndex=self.link,
-            numThreads=1, physicsClientId=self.client,
+            numThreads=0, physicsClientId=self.client,
         )  # fmt: skip
         frac = np.fromiter(map(itemgetter(2), hits), dtype=np.float64, count=len(self._to))
         out = frac * self.params.range_max
