@@ -27,7 +27,7 @@ from d3dwa_bullet.cli.options import (
 from d3dwa_bullet.cli.output import json_text
 from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, D3DWAError
-from d3dwa_bullet.methods import check_method
+from d3dwa_bullet.methods import METHODS, check_method
 from d3dwa_bullet.params import SimParams, TerminationParams
 
 ROBOT_EXTRA = 'pip install "d3dwa-bullet[robot]"'
@@ -48,7 +48,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("drive", help="drive a Kachaka (or `d3dwa serve`) with a method")
     p.add_argument("--kachaka", required=True, metavar="HOST[:PORT]", help="robot address")
     p.add_argument("--goal", required=True, help="X,Y goal in the robot's odometry frame (m)")
-    p.add_argument("--method", required=True, help="dwa1, dwa2, dwa3, dqdwa, d3dwa, ...")
+    p.add_argument("--method", required=True, help=f"one of {', '.join(METHODS)}")
     p.add_argument("--policy", help="checkpoint directory for a learned method")
     p.add_argument(
         "--onnx", metavar="FILE",

@@ -96,7 +96,6 @@ def cmd_eval(args: argparse.Namespace) -> int:
         check_distinct,
         evaluate,
         key_apart,
-        make_noise,
         world_figures,
     )
     from d3dwa_bullet.evaluation.report import eval_markdown, figure_seeds, seeds_markdown
@@ -104,7 +103,6 @@ def cmd_eval(args: argparse.Namespace) -> int:
     worlds, renamed = key_apart(loaded)
     for run in runs:  # fail fast on a missing policy or profile, before any episode runs
         make_controller(run.method, run.policy)
-    make_noise(args.noise, seeds[0])
     jobs = [
         Job(w, r.method, s, args.noise, r.policy, policy_seed=r.policy_seed)
         for w in worlds for r in runs for s in seeds
