@@ -52,6 +52,18 @@ MODES = ("collision", *SYMPTOMS, "slow")
 """Primary modes, in the order they are assigned."""
 
 
+CIRCLING_RAD_S = 1.0
+"""Mean turn rate over a failed episode (PD / time) above which it counts as circling, rad/s:
+a full turn every 6.3 s or faster. A count beside the modes, not one of them, so no episode
+changes mode: it was added after issue 22's sweeps showed progress-aware policies turning
+circles for a whole episode, which the modes file under ``slow`` or ``oscillation``."""
+
+
+def circling(pd_rad: float, time_s: float) -> bool:
+    """Whether an episode's heading turned faster than CIRCLING_RAD_S on average."""
+    return time_s > 0 and pd_rad / time_s > CIRCLING_RAD_S
+
+
 PROGRESS_RADIUS = 0.5
 """Movement that counts as progress after a recovery, m (the progress checker's default)."""
 

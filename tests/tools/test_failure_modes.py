@@ -17,11 +17,31 @@ def results_dir(tmp_path):
         dict(world="W", method="d3dwa", policy_seed=0, seed=0, noise="harsh", outcome="timeout"),
         dict(world="W", method="d3dwa", policy_seed=1, seed=0, noise="harsh", outcome="goal"),
         dict(world="W", method="dwa3", policy_seed="", seed=0, noise="harsh", outcome="collision"),
+        dict(
+            world="V",
+            method="d3dwa",
+            policy_seed=0,
+            seed=0,
+            noise="harsh",
+            outcome="timeout",
+            pd_rad=21.0,
+            time_s=20.0,
+        ),  # 1.05 rad/s on average: a circle every 6 s
+        dict(
+            world="V",
+            method="d3dwa",
+            policy_seed=1,
+            seed=0,
+            noise="harsh",
+            outcome="goal",
+            pd_rad=30.0,
+            time_s=10.0,
+        ),  # turning as fast, but it arrived: not a failure
     ]
     (tmp_path / "logs").mkdir()
     with appending_rows(tmp_path, CSV_FIELDS) as append:
         for r in rows:
-            r |= dict(time_s=1.0, tl_m=0.0, pd_rad=0.0, min_clearance_m=0.1, steps=10)
+            r = dict(time_s=1.0, tl_m=0.0, pd_rad=0.0, min_clearance_m=0.1, steps=10) | r
             append(r)
             key = row_key(r | {"policy_seed": None if r["policy_seed"] == "" else r["policy_seed"]})
             np.savez(tmp_path / "logs" / log_name(key), **log(speed=0.0, outcome=r["outcome"]))
@@ -31,10 +51,11 @@ def results_dir(tmp_path):
 def test_failures_are_counted_by_mode_per_noise_and_method(tmp_path, capsys):
     out = results_dir(tmp_path)
     records = {r["method"]: r for r in failure_records(out)}
-    assert records["d3dwa"]["episodes"] == 2 and records["d3dwa"]["failures"] == 1
-    assert records["d3dwa"]["modes"]["stall"] == 1 and records["d3dwa"]["symptoms"]["stall"] == 1
+    assert records["d3dwa"]["episodes"] == 4 and records["d3dwa"]["failures"] == 2
+    assert records["d3dwa"]["modes"]["stall"] == 2 and records["d3dwa"]["symptoms"]["stall"] == 2
+    assert records["d3dwa"]["circling"] == 1 and records["dwa3"]["circling"] == 0
     assert records["dwa3"]["modes"]["collision"] == 1
-    assert records["d3dwa"]["symptoms_in_goals"]["stall"] == 1  # the success stalled too
+    assert records["d3dwa"]["symptoms_in_goals"]["stall"] == 2  # the successes stalled too
     assert main([str(out), "--json", "--figure", str(tmp_path / "modes.png")]) == 0
     assert json.loads(capsys.readouterr().out)[0]["noise"] == "harsh"
     assert (tmp_path / "modes.png").read_bytes()[:4] == b"\x89PNG"

@@ -4,7 +4,8 @@ Reads results.csv and every episode's per-step log, classifies each failure with
 :mod:`d3dwa_bullet.evaluation.failures` (primary mode and symptoms), and prints one row per
 (noise, method): episodes, failures, the count of each primary mode, how many failures
 show each symptom at all, and how many successful episodes show it too (a symptom as
-common among successes does not explain the failures). ``--figure PNG`` draws the primary modes as stacked bars per
+common among successes does not explain the failures), and the failures that turned circles
+(``circling``: a count beside the modes, see failures.CIRCLING_RAD_S). ``--figure PNG`` draws the primary modes as stacked bars per
 noise profile; ``--json`` prints the records.
 
     python -m tools.experiments.failure_modes /work/results/profiles-seeds --figure modes.png
@@ -21,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import D3DWAError, ResultsError
-from d3dwa_bullet.evaluation.failures import MODES, SYMPTOMS, classify, recoveries
+from d3dwa_bullet.evaluation.failures import MODES, SYMPTOMS, circling, classify, recoveries
 from d3dwa_bullet.evaluation.jobs import log_name
 from d3dwa_bullet.evaluation.results import job_rows, load_log, recovery_of, row_key
 from d3dwa_bullet.evaluation.sweep_settings import PROFILES
@@ -42,7 +43,7 @@ def failure_records(out: Path) -> list[dict[str, Any]]:
         modes: Counter[str] = Counter()
         seen: Counter[str] = Counter()
         in_goals: Counter[str] = Counter()
-        started = progressed = 0
+        started = progressed = circles = 0
         for r in rs:
             path = out / "logs" / log_name(row_key(r))
             if not path.is_file():
@@ -56,6 +57,7 @@ def failure_records(out: Path) -> list[dict[str, Any]]:
                 continue
             modes[found["mode"]] += 1
             seen.update(found["symptoms"])
+            circles += circling(float(r["pd_rad"]), float(r["time_s"]))
         failures = sum(modes.values())
         records.append({
             "noise": noise, "method": method, "episodes": len(rs), "failures": failures,
@@ -64,6 +66,8 @@ def failure_records(out: Path) -> list[dict[str, Any]]:
             "symptoms_in_goals": {s: in_goals[s] for s in SYMPTOMS},
             # recoveries started, and those after which the robot moved on (failures.py)
             "recoveries": started, "recoveries_with_progress": progressed,
+            # failures whose heading turned > 1 rad/s on average, whatever their mode
+            "circling": circles,
         })  # fmt: skip
     return records
 
@@ -76,8 +80,8 @@ def markdown(records: Sequence[dict[str, Any]], noises: Sequence[str]) -> str:
         + " | ".join(f"any {s}" for s in SYMPTOMS)
         + " | "
         + " | ".join(f"{s} in goals" for s in SYMPTOMS)
-        + " | recoveries | recoveries with progress |",
-        "|---|---|" + "---:|" * (4 + len(MODES) + 2 * len(SYMPTOMS)),
+        + " | recoveries | recoveries with progress | circling failures |",
+        "|---|---|" + "---:|" * (5 + len(MODES) + 2 * len(SYMPTOMS)),
     ]
     for noise in noises:
         for r in (r for r in records if r["noise"] == noise):
@@ -87,6 +91,7 @@ def markdown(records: Sequence[dict[str, Any]], noises: Sequence[str]) -> str:
             goals = r["episodes"] - r["failures"]
             cells += [f"{r['symptoms_in_goals'][s]}/{goals}" if goals else "" for s in SYMPTOMS]
             cells += [str(r["recoveries"]), str(r["recoveries_with_progress"])]
+            cells += [str(r["circling"] or "")]
             label = LABELS.get(r["method"], r["method"])
             lines.append(f"| {noise} | {label} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
