@@ -13,6 +13,14 @@ robot stalls, so ``--worlds`` should hold some where DWA III does (US1, TS4, H2)
 
     python -m tools.bench.bench_env --json
     python -m tools.bench.bench_env --recovery both --worlds TS1,US1,TS4,H2 --steps 600 --json
+
+``--train-env CONFIG`` also steps one training env of that config (its worlds, curriculum,
+noise recipe and observation; uniformly random actions from a fixed seed, resetting when an
+episode ends) for as many steps, alternating with the bare runs, and reports its steps per
+second and per CPU-second beside them: is the env the training loop drives dearer than the
+bare simulator, or is the gap in the loop around it?
+
+    python -m tools.bench.bench_env --train-env configs/d3dwa-pa-dr.yaml --json
 """
 
 from __future__ import annotations
@@ -58,6 +66,29 @@ def bench(worlds: list[str], steps: int, method: str, recovery: str = "none") ->
     }
 
 
+def bench_train_env(config: str, steps: int) -> dict:
+    """steps control steps of one training env of ``config``, random actions (seed 0)."""
+    import numpy as np
+
+    from d3dwa_bullet.learning.training import load_train_config
+    from d3dwa_bullet.learning.training.config import make_env
+
+    env = make_env(load_train_config(config))
+    rng = np.random.default_rng(0)
+    try:
+        env.reset(seed=0)
+        t0, c0 = time.perf_counter(), time.process_time()
+        for _ in range(steps):
+            _, _, terminated, truncated, _ = env.step(int(rng.integers(env.action_space.n)))
+            if terminated or truncated:
+                env.reset()
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    finally:
+        env.close()
+    return {"steps_per_s": round(steps / wall, 1), "steps_per_cpu_s": round(steps / cpu, 1),
+            "steps": steps, "config": config}  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -67,16 +98,20 @@ def main() -> None:
     ap.add_argument("--method", default="dwa3")
     ap.add_argument("--repeats", type=int, default=3, help="whole runs; the median is reported")
     ap.add_argument("--recovery", default="none", choices=("none", "nav2", "both"))
+    ap.add_argument("--train-env", metavar="CONFIG", help="also step a training env of CONFIG")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     worlds = args.worlds.split(",")
     kinds = ("none", "nav2") if args.recovery == "both" else (args.recovery,)
-    runs: dict[str, list[dict]] = {k: [] for k in kinds}
+    runs: dict[str, list[dict]] = {k: [] for k in (*kinds, "train_env")}
     for _ in range(args.repeats):  # alternating, so a busy spell hits both alike
         for kind in kinds:
             runs[kind].append(bench(worlds, args.steps, args.method, kind))
+            if args.train_env:
+                n = runs[kind][-1]["steps"]
+                runs["train_env"].append(bench_train_env(args.train_env, n))
     summary = {}
-    for kind, rs in runs.items():
+    for kind, rs in ((k, rs) for k, rs in runs.items() if rs):
         rs.sort(key=lambda r: r["steps_per_s"])
         summary[kind] = rs[len(rs) // 2] | {
             "repeats": args.repeats,
@@ -93,6 +128,16 @@ def main() -> None:
         }
     else:
         out = summary[kinds[0]]
+    if args.train_env:
+        train_env, bare = summary["train_env"], summary[kinds[0]]
+        out = {
+            "bare": bare,
+            "train_env": train_env,
+            "train_env_vs_bare_cpu": round(
+                train_env["steps_per_cpu_s"] / bare["steps_per_cpu_s"], 3
+            ),
+            "train_env_vs_bare_wall": round(train_env["steps_per_s"] / bare["steps_per_s"], 3),
+        }
     print(json.dumps(out) if args.json else "\n".join(f"{k:>16}: {v}" for k, v in out.items()))
 
 
