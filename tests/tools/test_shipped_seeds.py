@@ -19,3 +19,15 @@ def test_one_row_per_method_with_every_seed(tmp_path):
     assert [r["method"] for r in records] == ["d3dwa"]
     row = markdown(records).splitlines()[2]
     assert row == "| `d3dwa` | 0, 1 | 250k | 40k, 200k | 0.50, 0.75 | 10.0-14.0 min |"
+
+
+def test_a_keep_final_seed_reports_its_final_checkpoint(tmp_path):
+    folder = tmp_path / "d3dwa-pa" / "seed-0"
+    folder.mkdir(parents=True)
+    summary = {"env_steps": 250_000, "wall_time_s": 1200.0,
+               "best_eval": {"step": 100_934, "success_rate": 0.89},
+               "final_eval": {"step": 250_000, "success_rate": 0.67}}  # fmt: skip
+    (folder / "summary.json").write_text(json.dumps(summary))
+    (folder / "config.json").write_text(json.dumps({"keep": "final"}))
+    row = markdown(seed_records(tmp_path)).splitlines()[2]
+    assert row == "| `d3dwa-pa` | 0 | 250k | 250k | 0.67 | 20.0-20.0 min |"

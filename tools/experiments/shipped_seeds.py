@@ -1,8 +1,9 @@
 """The shipped training seeds: one row per method from every ``policies/<method>/seed-<k>/``.
 
 Reads each seed's ``summary.json`` (what its training run measured) and prints a Markdown
-table (or ``--json``): seeds, env steps, the step ``keep: best`` kept (per seed), its
-validation success on the config's eval_worlds, and the wall time per seed. Nothing here
+table (or ``--json``): seeds, env steps, the step kept (per seed: the best validation's under
+``keep: best``, the last under ``keep: final``, as the seed's config.json says), that
+checkpoint's validation success on the config's eval_worlds, and the wall time per seed. Nothing here
 is typed in; the README's policy table is this command's output.
 
     python -m tools.experiments.shipped_seeds
@@ -34,10 +35,14 @@ def seed_records(folder: Path) -> list[dict[str, Any]]:
         rows = []
         for k, path in seeds.items():
             summary = load_json(path / "summary.json", ResultsError)
-            best = summary.get("best_eval") or {}
+            config = path / "config.json"
+            keep = (
+                load_json(config, ResultsError).get("keep", "best") if config.is_file() else "best"
+            )
+            kept = summary.get("final_eval" if keep == "final" else "best_eval") or {}
             rows.append({
-                "seed": k, "env_steps": summary["env_steps"], "kept_step": best.get("step"),
-                "validation_success": best.get("success_rate"),
+                "seed": k, "env_steps": summary["env_steps"], "keep": keep,
+                "kept_step": kept.get("step"), "validation_success": kept.get("success_rate"),
                 "wall_min": summary["wall_time_s"] / 60.0,
             })  # fmt: skip
         out.append({"method": method, "seeds": rows})
