@@ -26,6 +26,14 @@ def test_each_seed_curve_and_its_kept_step(tmp_path):
     assert steps.tolist() == [20, 40] and values.tolist() == [0.22, 0.42] and kept == 40
 
 
+def test_a_keep_final_seed_marks_its_final_checkpoint(tmp_path):
+    run = run_dir(tmp_path)
+    summary = {"best_eval": {"step": 20}, "final_eval": {"step": 40}}
+    (run / "seed-0" / "summary.json").write_text(json.dumps(summary))
+    (run / "seed-0" / "config.json").write_text(json.dumps({"method": "d3dwa-pa", "keep": "final"}))
+    assert seed_curves(run)[0][2] == 40  # not the best validation's step 20
+
+
 def test_figure_and_a_run_without_evaluations(tmp_path, capsys):
     run = run_dir(tmp_path)
     assert main([str(run), "--out", str(tmp_path / "c.png")]) == 0

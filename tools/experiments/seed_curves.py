@@ -2,8 +2,9 @@
 
 Reads ``eval/success_rate`` from each ``seed-<k>/metrics.jsonl`` of one or more training
 runs over seeds (``d3dwa train --seeds 0-4 --out runs/NAME``) and draws one panel per run:
-a thin line per seed, the mean over seeds thick, and a dot at the checkpoint ``keep: best``
-kept (from each seed's summary.json). The validation layouts are training material, so
+a thin line per seed, the mean over seeds thick, and a dot at the checkpoint the seed kept
+(its config's rule: the best validation under ``keep: best``, the last under ``keep: final``;
+from each seed's config.json and summary.json). The validation layouts are training material, so
 these curves say how training went, not how a method does on the reported worlds.
 
     python -m tools.experiments.seed_curves runs/d3dwa runs/d3dwa-weights --out curves.png
@@ -33,8 +34,10 @@ def seed_curves(run: Path) -> dict[int, tuple[np.ndarray, np.ndarray, int | None
         rows = read_metrics(path, "eval/success_rate")
         if not rows:
             continue
-        summary = path / "summary.json"
-        best = load_json(summary, ResultsError).get("best_eval") if summary.is_file() else None
+        summary, config = path / "summary.json", path / "config.json"
+        keep = load_json(config, ResultsError).get("keep", "best") if config.is_file() else "best"
+        kept_eval = "final_eval" if keep == "final" else "best_eval"
+        best = load_json(summary, ResultsError).get(kept_eval) if summary.is_file() else None
         steps = np.array([r["step"] for r in rows])
         values = np.array([r["value"] for r in rows])
         curves[k] = (steps, values, (best or {}).get("step"))
@@ -69,7 +72,7 @@ def figure(runs: Sequence[Path], out: Path) -> Path:
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("greedy validation success")
     axes[-1].legend(fontsize=6, loc="lower right")
-    fig.suptitle("Validation success over training (dots: the checkpoint keep: best kept)",
+    fig.suptitle("Validation success over training (dots: the checkpoint each seed kept)",
                  fontsize=9)  # fmt: skip
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
