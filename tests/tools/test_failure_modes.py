@@ -11,32 +11,17 @@ from d3dwa_bullet.evaluation.results import CSV_FIELDS, appending_rows, row_key
 from tests.evaluation.test_failures import log
 from tools.experiments.failure_modes import failure_records, main
 
+CIRCLE = dict(world="V", method="d3dwa", seed=0, noise="harsh")
+
 
 def results_dir(tmp_path):
     rows = [
         dict(world="W", method="d3dwa", policy_seed=0, seed=0, noise="harsh", outcome="timeout"),
         dict(world="W", method="d3dwa", policy_seed=1, seed=0, noise="harsh", outcome="goal"),
         dict(world="W", method="dwa3", policy_seed="", seed=0, noise="harsh", outcome="collision"),
-        dict(
-            world="V",
-            method="d3dwa",
-            policy_seed=0,
-            seed=0,
-            noise="harsh",
-            outcome="timeout",
-            pd_rad=21.0,
-            time_s=20.0,
-        ),  # 1.05 rad/s on average: a circle every 6 s
-        dict(
-            world="V",
-            method="d3dwa",
-            policy_seed=1,
-            seed=0,
-            noise="harsh",
-            outcome="goal",
-            pd_rad=30.0,
-            time_s=10.0,
-        ),  # turning as fast, but it arrived: not a failure
+        # 1.05 rad/s on average, a circle every 6 s; the second turns as fast but arrives
+        dict(CIRCLE, policy_seed=0, outcome="timeout", pd_rad=21.0, time_s=20.0),
+        dict(CIRCLE, policy_seed=1, outcome="goal", pd_rad=30.0, time_s=10.0),
     ]
     (tmp_path / "logs").mkdir()
     with appending_rows(tmp_path, CSV_FIELDS) as append:
