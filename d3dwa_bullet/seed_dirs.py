@@ -9,10 +9,13 @@ all name, list and parse those folders here.
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
-from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.errors import ConfigError, ResultsError
 from d3dwa_bullet.limits import MAX_SEED_VALUE, MAX_SEEDS
+from d3dwa_bullet.loading import load_json
 
 SEED_DIR = "seed-{}"
 _SEED_NAME = re.compile(r"seed-(\d+)")
@@ -36,6 +39,15 @@ def seed_dirs(folder: str | Path) -> dict[int, Path]:
         return {}
     found = {seed_of(p): p for p in folder.iterdir() if p.is_dir() and seed_of(p) is not None}
     return {k: found[k] for k in sorted(found)}  # type: ignore[type-var]
+
+
+def kept_evaluation(folder: str | Path, summary: Mapping[str, Any]) -> tuple[str, dict[str, Any]]:
+    """(keep rule, validation record of the checkpoint it kept) of one training seed folder (a
+    run's ``seed-<k>/`` or a shipped one): ``summary``'s (its summary.json) ``final_eval`` under
+    ``keep: final`` in the folder's config.json, else its ``best_eval``; {} when it has none."""
+    config = Path(folder) / "config.json"
+    keep = load_json(config, ResultsError).get("keep", "best") if config.is_file() else "best"
+    return keep, dict(summary.get("final_eval" if keep == "final" else "best_eval") or {})
 
 
 def parse_seeds(text: str, option: str = "--seeds") -> list[int]:

@@ -24,7 +24,7 @@ from d3dwa_bullet.io import atomic_savefig
 from d3dwa_bullet.learning.training.logs import read_metrics
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.methods import LABELS
-from d3dwa_bullet.seed_dirs import seed_dirs
+from d3dwa_bullet.seed_dirs import kept_evaluation, seed_dirs
 
 
 def seed_curves(run: Path) -> dict[int, tuple[np.ndarray, np.ndarray, int | None]]:
@@ -34,13 +34,12 @@ def seed_curves(run: Path) -> dict[int, tuple[np.ndarray, np.ndarray, int | None
         rows = read_metrics(path, "eval/success_rate")
         if not rows:
             continue
-        summary, config = path / "summary.json", path / "config.json"
-        keep = load_json(config, ResultsError).get("keep", "best") if config.is_file() else "best"
-        kept_eval = "final_eval" if keep == "final" else "best_eval"
-        best = load_json(summary, ResultsError).get(kept_eval) if summary.is_file() else None
+        summary = path / "summary.json"
+        found = load_json(summary, ResultsError) if summary.is_file() else {}
+        _, kept = kept_evaluation(path, found)
         steps = np.array([r["step"] for r in rows])
         values = np.array([r["value"] for r in rows])
-        curves[k] = (steps, values, (best or {}).get("step"))
+        curves[k] = (steps, values, kept.get("step"))
     return curves
 
 

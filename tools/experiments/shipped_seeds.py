@@ -22,7 +22,7 @@ from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.methods import LEARNED
 from d3dwa_bullet.resources import policies_dir
-from d3dwa_bullet.seed_dirs import seed_dirs
+from d3dwa_bullet.seed_dirs import kept_evaluation, seed_dirs
 
 
 def seed_records(folder: Path) -> list[dict[str, Any]]:
@@ -35,11 +35,7 @@ def seed_records(folder: Path) -> list[dict[str, Any]]:
         rows = []
         for k, path in seeds.items():
             summary = load_json(path / "summary.json", ResultsError)
-            config = path / "config.json"
-            keep = (
-                load_json(config, ResultsError).get("keep", "best") if config.is_file() else "best"
-            )
-            kept = summary.get("final_eval" if keep == "final" else "best_eval") or {}
+            keep, kept = kept_evaluation(path, summary)
             rows.append({
                 "seed": k, "env_steps": summary["env_steps"], "keep": keep,
                 "kept_step": kept.get("step"), "validation_success": kept.get("success_rate"),
