@@ -98,7 +98,15 @@ def test_tiny_run_writes_checkpoint_config_and_metrics(tiny: str, tmp_path: Path
         "losses/td_loss",
         "planner/tau",
         "eval/success_rate",
+        "eval/mean_q",
+        "eval/discounted_return",
     }
+    # value calibration of every greedy evaluation: the same figures in the summary's evals
+    q = read_metrics(out, "eval/mean_q")
+    g = read_metrics(out, "eval/discounted_return")
+    assert [r["step"] for r in q] == [r["step"] for r in g] and q[-1]["step"] == 120
+    assert all(np.isfinite(r["value"]) for r in q + g)
+    assert all(abs(r["value"]) <= 0.5 + 0.01 * 600 for r in g)  # at most the goal + shaping
     hist = read_metrics(out, "planner/tau")[0]["histogram"]
     assert set(hist) == {"2", "3", "4", "5"}
     latest = out / "checkpoints" / "latest"
@@ -261,6 +269,12 @@ def test_dqdwa_through_the_cli(tiny: str, tmp_path: Path, capsys: pytest.Capture
         ({"noise": ("none", "real"), "noise_probs": (1.0,)}, "noise_probs"),
         ({"keep": "best", "eval_every": 0}, "eval_every"),
         ({"total_steps": 0}, "total_steps"),
+        ({"agent": {"gamma": 1.0}}, r"gamma must be in \(0, 1\)"),
+        ({"agent": {"gamma": 0.0}}, r"gamma must be in \(0, 1\)"),
+        ({"agent": {"tau_soft": 0.0}}, r"tau_soft must be in \(0, 1\]"),
+        ({"agent": {"tau_soft": 1.5}}, r"tau_soft must be in \(0, 1\]"),
+        ({"agent": {"lr": 0.0}}, "lr must be > 0"),
+        ({"agent": {"lr": -1e-3}}, "lr must be > 0"),
         ({"agent": DQDWAConfig()}, "needs a D3QNConfig"),
         ({"route_start_prob": 1.5}, "route_start_prob"),
         ({"route_start_span": 1.0}, "route_start_span"),

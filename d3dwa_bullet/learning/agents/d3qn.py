@@ -78,7 +78,7 @@ class D3QNConfig:
     def __post_init__(self) -> None:
         object.__setattr__(self, "hidden", tuple(int(h) for h in self.hidden))
         checks: list[tuple[str, bool, str]] = [
-            ("gamma", 0.0 <= self.gamma <= 1.0, "in [0, 1]"),
+            ("gamma", 0.0 < self.gamma < 1.0, "in (0, 1)"),
             ("lr", self.lr > 0, "> 0"),
             ("batch_size", self.batch_size >= 1, ">= 1"),
             (

@@ -179,7 +179,7 @@ class DQDWAConfig:
     def __post_init__(self) -> None:
         checks = [
             ("alpha", 0.0 < self.alpha <= 1.0, "in (0, 1]"),
-            ("gamma", 0.0 <= self.gamma <= 1.0, "in [0, 1]"),
+            ("gamma", 0.0 < self.gamma < 1.0, "in (0, 1)"),
             ("eps_start", 0.0 <= self.eps_start <= 1.0, "in [0, 1]"),
             (
                 "eps_end",

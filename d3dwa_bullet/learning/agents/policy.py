@@ -103,3 +103,16 @@ def load_policy(
     except TypeError as err:  # pragma: no cover - load_checkpoint only builds known agents
         raise CheckpointError(f"{path}: {err}") from err
     return policy, agent.actions, meta
+
+
+def taken_q_values(agent: Agent, obs: np.ndarray, actions: np.ndarray) -> np.ndarray:
+    """The agent's own Q(s_t, a_t) for a sequence of observations (T, obs_dim) and the
+    actions taken in them (T,): the online network's for a D3QN, the table's for DQDWA."""
+    actions = np.asarray(actions, dtype=np.int64)
+    rows = np.arange(len(actions))
+    if isinstance(agent, D3QNAgent):
+        return agent.q_values(np.asarray(obs, dtype=np.float32))[rows, actions].astype(np.float64)
+    if isinstance(agent, DQDWAAgent):
+        states = [agent.discretisation.state_index(o) for o in obs]
+        return agent.table[states, actions].astype(np.float64)
+    raise TypeError(f"taken_q_values: unsupported agent type {type(agent).__name__}")

@@ -5,6 +5,10 @@ budget) the greedy policy of the agent runs one episode per evaluation world and
 with the ``eval_noise`` profile. Evaluation worlds are training worlds (or generated
 layouts): the evaluation-only groups stay unseen. The best evaluation so far (success
 rate, then fewer collisions, then mean return) is what ``keep: best`` ships.
+
+Every evaluation also measures value calibration (docs/design.md#value-calibration): the
+agent's mean Q over the (s, a) pairs its greedy episodes visited, against the discounted
+return those pairs went on to earn, with the agent's own gamma.
 """
 
 from __future__ import annotations
@@ -16,16 +20,18 @@ import numpy as np
 
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
-from d3dwa_bullet.learning.agents.policy import greedy_policy
+from d3dwa_bullet.learning.agents.policy import greedy_policy, taken_q_values
 from d3dwa_bullet.learning.training.config import TrainConfig, make_env
 from d3dwa_bullet.learning.training.logs import MetricsLog
+from d3dwa_bullet.learning.value_calibration import calibrate
 
 
 def evaluate(agent: D3QNAgent | DQDWAAgent, config: TrainConfig, step: int) -> dict[str, Any]:
     """Greedy episodes of ``agent`` on the config's evaluation worlds and seeds.
 
     Returns {"step", "success_rate", "collision_rate", "mean_return", "mean_time_s" (of
-    the successful episodes, None if none), "outcomes": world -> outcome per seed}.
+    the successful episodes, None if none), "outcomes": world -> outcome per seed,
+    "values": the value calibration's figures (ValueCalibration.to_dict)}.
     """
     c = config
     policy = greedy_policy(agent)
@@ -33,19 +39,26 @@ def evaluate(agent: D3QNAgent | DQDWAAgent, config: TrainConfig, step: int) -> d
     outcomes: dict[str, list[str]] = {}
     returns = []
     times = []
+    q_series: list[np.ndarray] = []
+    reward_series: list[list[float]] = []
     try:
         for world in c.eval_worlds:
             for seed in c.eval_seeds:
                 obs, info = env.reset(
                     options={"world": world, "noise": c.eval_noise, "episode_seed": seed}
                 )
-                total, n = 0.0, 0
+                seen, taken, rewards = [], [], []
                 while True:
-                    obs, r, terminated, truncated, info = env.step(policy(obs))
-                    total += r
-                    n += 1
+                    action = policy(obs)
+                    seen.append(obs)
+                    taken.append(action)
+                    obs, r, terminated, truncated, info = env.step(action)
+                    rewards.append(float(r))
                     if terminated or truncated:
                         break
+                q_series.append(taken_q_values(agent, np.stack(seen), np.array(taken)))
+                reward_series.append(rewards)
+                total, n = sum(rewards), len(rewards)
                 outcomes.setdefault(info["world"], []).append(info["outcome"])
                 returns.append(total)
                 if info["outcome"] == "goal":
@@ -60,6 +73,7 @@ def evaluate(agent: D3QNAgent | DQDWAAgent, config: TrainConfig, step: int) -> d
         "mean_return": float(np.mean(returns)),
         "mean_time_s": float(np.mean(times)) if times else None,
         "outcomes": outcomes,
+        "values": calibrate(q_series, reward_series, agent.config.gamma).to_dict(),
     }
 
 
@@ -68,6 +82,10 @@ def log_evaluation(logs: MetricsLog, step: int, result: Mapping[str, Any]) -> No
     logs.scalar(step, "eval/success_rate", result["success_rate"])
     logs.scalar(step, "eval/collision_rate", result["collision_rate"])
     logs.scalar(step, "eval/mean_return", result["mean_return"])
+    values = result.get("values")
+    if values:
+        logs.scalar(step, "eval/mean_q", values["mean_q"])
+        logs.scalar(step, "eval/discounted_return", values["mean_return"])
     for world, outs in result["outcomes"].items():
         logs.scalar(step, f"eval/{world}_success", outs.count("goal") / len(outs))
     logs.flush()  # the learning curve reads the file: the final evaluation must be on it
@@ -83,6 +101,12 @@ def describe(step: int, result: Mapping[str, Any]) -> str:
     per_world = " ".join(f"{w}:{'/'.join(o)}" for w, o in result["outcomes"].items())
     return (
         f"step {step}: greedy eval success {result['success_rate']:.2f}, "
-        f"collisions {result['collision_rate']:.2f}, return {result['mean_return']:.3f} "
-        f"[{per_world}]"
+        f"collisions {result['collision_rate']:.2f}, return {result['mean_return']:.3f}, "
+        f"{_values_text(result.get('values'))} [{per_world}]"
     )
+
+
+def _values_text(values: Mapping[str, Any] | None) -> str:
+    if not values:
+        return "mean Q -"
+    return f"mean Q {values['mean_q']:.3f} vs discounted return {values['mean_return']:.3f}"

@@ -196,13 +196,17 @@ def _rolling(values: np.ndarray, window: int) -> np.ndarray:
 def learning_curve(
     out: str | os.PathLike[str], path: str | os.PathLike[str], title: str = ""
 ) -> Path:
-    """Return and success rate vs env steps (training rolling means + greedy evaluations)."""
+    """Return and success rate vs env steps (training rolling means + greedy evaluations),
+    and the greedy evaluations' value calibration: mean Q of the pairs they visited against
+    the discounted return those pairs earned (docs/design.md#value-calibration)."""
     rows = read_episodes(out)
     evals = read_metrics(out, "eval/success_rate")
     eval_returns = read_metrics(out, "eval/mean_return")
-    fig = Figure(figsize=(8, 6), tight_layout=True)
+    eval_q = read_metrics(out, "eval/mean_q")
+    eval_g = read_metrics(out, "eval/discounted_return")
+    fig = Figure(figsize=(8, 8.5), tight_layout=True)
     FigureCanvasAgg(fig)
-    ax1, ax2 = fig.subplots(2, 1, sharex=True)
+    ax1, ax2, ax3 = fig.subplots(3, 1, sharex=True)
     if rows:
         steps = np.array([r["step"] for r in rows])
         returns = np.array([r["return"] for r in rows])
@@ -218,11 +222,18 @@ def learning_curve(
     if evals:
         ax2.plot([r["step"] for r in evals], [r["value"] for r in evals], "o-", color="tab:red",
                  label="greedy evaluation (eval_worlds)")  # fmt: skip
+    if eval_q:
+        ax3.plot([r["step"] for r in eval_q], [r["value"] for r in eval_q], "o-",
+                 color="tab:purple", label="mean Q of the visited (s, a)")  # fmt: skip
+    if eval_g:
+        ax3.plot([r["step"] for r in eval_g], [r["value"] for r in eval_g], "s--",
+                 color="tab:gray", label="discounted return they earned")  # fmt: skip
     ax1.set_ylabel("episodic return")
     ax2.set_ylabel("success rate")
     ax2.set_ylim(-0.05, 1.05)
-    ax2.set_xlabel("environment steps (0.1 s each)")
-    for ax in (ax1, ax2):
+    ax3.set_ylabel("greedy evaluation value")
+    ax3.set_xlabel("environment steps (0.1 s each)")
+    for ax in (ax1, ax2, ax3):
         ax.grid(True, alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(loc="lower right", fontsize=8)
