@@ -45,6 +45,9 @@ mode and paces ``step`` to ``metadata["render_fps"]`` (the control rate, 10 Hz),
 WAYLAND_DISPLAY) it is refused at construction. Rendering never changes an episode: the same
 seed gives the same steps with or without it.
 
+Beyond the paper (off by default), ``decision_steps=k`` holds each action for k control steps
+and sums their rewards (info["control_steps"]: how many ran).
+
 ``step`` refuses (ConfigError) an action that is not an int or numpy integer in the space: a
 float or a bool is not truncated; ``reset`` refuses option keys outside ``tasks.RESET_OPTIONS``.
 
@@ -130,8 +133,14 @@ class D3DWAEnv(gym.Env):
         render_mode: str | None = None,
         recovery: str | RecoveryParams | None = None,
         observation: str = "paper",
+        decision_steps: int = 1,
     ) -> None:
         super().__init__()
+        if type(decision_steps) is not int or not 1 <= decision_steps <= 100:
+            raise ConfigError(
+                f"decision_steps must be a whole number in [1, 100], got {decision_steps}"
+            )
+        self.decision_steps = decision_steps  # docs/design.md#decision-period
         self.observation_kind = check_observation_kind(observation, "D3DWAEnv observation")
         if recovery is not None:
             params = recovery if isinstance(recovery, RecoveryParams) else recovery_params(recovery)
@@ -249,6 +258,18 @@ class D3DWAEnv(gym.Env):
                 f"in Discrete({self.actions.size}), i.e. 0..{self.actions.size - 1}"
             )
         index = int(action)
+        total, n = 0.0, 0
+        while n < self.decision_steps:  # beyond the paper when > 1: hold the action
+            obs, r, terminated, truncated, info = self._control_step(index)
+            total, n = total + r, n + 1
+            if terminated or truncated:
+                break
+        info["control_steps"] = n
+        return obs, total, terminated, truncated, info
+
+    def _control_step(self, index: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        ep = self.episode  # one 0.1 s control step with a checked action index
+        assert ep is not None
         t0 = perf()
         planner_action = self.actions.decode(index)
         d_goal, d_obs = ep.goal_distance, ep.obstacle_distance

@@ -251,3 +251,23 @@ def test_stall_penalty_reaches_the_env_reward(open_world: World) -> None:
     np.testing.assert_allclose(rewards[0] - rewards[1], [0.0, -0.01, -0.01], atol=1e-12)
     env.close()
     paper.close()
+
+
+def test_decision_steps_hold_an_action_and_sum_its_rewards(open_world: World) -> None:
+    """Beyond the paper: one step of decision_steps=4 is four control steps of one action."""
+    one = D3DWAEnv(worlds=(open_world,), decision_steps=1)
+    four = D3DWAEnv(worlds=(open_world,), decision_steps=4)
+    fine = _run(one, [PROGRESS] * 600, seed=5)
+    coarse = _run(four, [PROGRESS] * 150, seed=5)
+    assert fine[-1][4]["outcome"] == coarse[-1][4]["outcome"] == "goal"
+    n_fine = len(fine) - 1
+    assert len(coarse) - 1 == -(-n_fine // 4)  # ceil: the last decision stops at the goal
+    assert sum(s[4]["control_steps"] for s in coarse[1:]) == n_fine
+    for k in range(1, len(coarse)):  # each decision's reward is the sum of its four steps
+        assert coarse[k][1] == pytest.approx(sum(s[1] for s in fine[4 * k - 3 : 4 * k + 1]))
+        np.testing.assert_array_equal(coarse[k][0], fine[min(4 * k, n_fine)][0])
+    for bad in (0, 101, 2.0, True):
+        with pytest.raises(ConfigError, match="decision_steps"):
+            D3DWAEnv(worlds=(open_world,), decision_steps=bad)
+    one.close()
+    four.close()

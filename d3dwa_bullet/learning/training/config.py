@@ -87,6 +87,11 @@ class TrainConfig:
     the robot last made progress; 0: the paper's reward (docs/design.md#stall-penalty)."""
     stall_after: float = 5.0
     """Seconds without progress (ground truth, 0.5 m circle) before the stall penalty."""
+    decision_steps: int = 1
+    """Control steps (0.1 s) one action is held for; 1: the paper's. Beyond the paper, off by
+    default (docs/design.md#decision-period): with k > 1 an env step, ``total_steps``,
+    ``eval_every``, ``checkpoint_every`` and the agent's gamma count decisions of k control
+    steps, so a budget of N control steps is ``total_steps: N / k``."""
     weights: tuple[float, ...] | None = None
     """Weight candidates W; None: the method's action set."""
     horizons: tuple[float, ...] | None = None
@@ -163,6 +168,7 @@ class TrainConfig:
             set_("n_envs", os.cpu_count() or 1)
         checks: list[tuple[str, bool, str]] = [
             ("total_steps", self.total_steps >= 1, ">= 1"),
+            ("decision_steps", 1 <= self.decision_steps <= 100, "in [1, 100]"),
             ("generator_prob", 0.0 <= self.generator_prob <= 1.0, "in [0, 1]"),
             ("route_start_prob", 0.0 <= self.route_start_prob <= 1.0, "in [0, 1]"),
             ("route_start_span", 0.0 < self.route_start_span < 1.0, "in (0, 1)"),
@@ -351,11 +357,17 @@ def check_validation_world(name: str) -> None:
     )
 
 
-def make_env(config: TrainConfig, worlds: Sequence[str] | None = None) -> D3DWAEnv:
-    """The training env of a config (or an env over ``worlds`` only, for evaluation)."""
+def make_env(
+    config: TrainConfig, worlds: Sequence[str] | None = None, allow_eval_worlds: bool = False
+) -> D3DWAEnv:
+    """The training env of a config (or an env over ``worlds`` only, for evaluation;
+    ``allow_eval_worlds`` admits the evaluation-only groups, for diagnostics that select
+    nothing, such as tools.experiments.value_check)."""
     if worlds is not None:
         return D3DWAEnv(
             worlds=tuple(worlds),
+            allow_eval_worlds=allow_eval_worlds,
+            decision_steps=config.decision_steps,
             actions=config.actions,
             reward_params=config.reward_params,
             observation=str(config.observation),
@@ -371,6 +383,7 @@ def make_env(config: TrainConfig, worlds: Sequence[str] | None = None) -> D3DWAE
         route_start_prob=config.route_start_prob,
         route_start_span=config.route_start_span,
         observation=str(config.observation),
+        decision_steps=config.decision_steps,
     )
 
 

@@ -14,16 +14,52 @@ return those pairs went on to earn, with the agent's own gamma.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
-from d3dwa_bullet.learning.agents.policy import greedy_policy, taken_q_values
+from d3dwa_bullet.learning.agents.policy import Policy, greedy_policy, taken_q_values
+from d3dwa_bullet.learning.env import D3DWAEnv
 from d3dwa_bullet.learning.training.config import TrainConfig, make_env
 from d3dwa_bullet.learning.training.logs import MetricsLog
 from d3dwa_bullet.learning.value_calibration import calibrate
+
+
+@dataclass
+class GreedyEpisode:
+    """One greedy episode as the learner saw it: the observations it acted on, the actions
+    it took and the rewards it earned, step by step, and the env's last info."""
+
+    world: str
+    outcome: str
+    seconds: float
+    obs: np.ndarray
+    actions: np.ndarray
+    rewards: np.ndarray
+
+
+def greedy_episode(
+    env: D3DWAEnv, policy: Policy, world: str, noise: str, seed: int
+) -> GreedyEpisode:
+    """Run ``policy`` for one episode of ``env`` on ``world`` with episode seed ``seed``."""
+    obs, info = env.reset(options={"world": world, "noise": noise, "episode_seed": seed})
+    seen, taken, rewards, control_steps = [], [], [], 0
+    while True:
+        action = policy(obs)
+        seen.append(obs)
+        taken.append(action)
+        obs, r, terminated, truncated, info = env.step(action)
+        rewards.append(float(r))
+        control_steps += info["control_steps"]
+        if terminated or truncated:
+            break
+    seconds = control_steps / env.episode_config.sim.control_hz
+    return GreedyEpisode(
+        info["world"], info["outcome"], seconds, np.stack(seen), np.array(taken), np.array(rewards)
+    )
 
 
 def evaluate(agent: D3QNAgent | DQDWAAgent, config: TrainConfig, step: int) -> dict[str, Any]:
@@ -36,44 +72,32 @@ def evaluate(agent: D3QNAgent | DQDWAAgent, config: TrainConfig, step: int) -> d
     c = config
     policy = greedy_policy(agent)
     env = make_env(c, worlds=c.eval_worlds[:1])
-    outcomes: dict[str, list[str]] = {}
-    returns = []
-    times = []
-    q_series: list[np.ndarray] = []
-    reward_series: list[list[float]] = []
     try:
-        for world in c.eval_worlds:
-            for seed in c.eval_seeds:
-                obs, info = env.reset(
-                    options={"world": world, "noise": c.eval_noise, "episode_seed": seed}
-                )
-                seen, taken, rewards = [], [], []
-                while True:
-                    action = policy(obs)
-                    seen.append(obs)
-                    taken.append(action)
-                    obs, r, terminated, truncated, info = env.step(action)
-                    rewards.append(float(r))
-                    if terminated or truncated:
-                        break
-                q_series.append(taken_q_values(agent, np.stack(seen), np.array(taken)))
-                reward_series.append(rewards)
-                total, n = sum(rewards), len(rewards)
-                outcomes.setdefault(info["world"], []).append(info["outcome"])
-                returns.append(total)
-                if info["outcome"] == "goal":
-                    times.append(n * 0.1)
+        episodes = [
+            greedy_episode(env, policy, world, c.eval_noise, seed)
+            for world in c.eval_worlds
+            for seed in c.eval_seeds
+        ]
     finally:
         env.close()
-    flat = [o for v in outcomes.values() for o in v]
+    outcomes: dict[str, list[str]] = {}
+    for e in episodes:
+        outcomes.setdefault(e.world, []).append(e.outcome)
+    flat = [e.outcome for e in episodes]
+    times = [e.seconds for e in episodes if e.outcome == "goal"]
+    values = calibrate(
+        [taken_q_values(agent, e.obs, e.actions) for e in episodes],
+        [e.rewards for e in episodes],
+        agent.config.gamma,
+    )
     return {
         "step": step,
         "success_rate": flat.count("goal") / len(flat),
         "collision_rate": flat.count("collision") / len(flat),
-        "mean_return": float(np.mean(returns)),
+        "mean_return": float(np.mean([e.rewards.sum() for e in episodes])),
         "mean_time_s": float(np.mean(times)) if times else None,
         "outcomes": outcomes,
-        "values": calibrate(q_series, reward_series, agent.config.gamma).to_dict(),
+        "values": values.to_dict(),
     }
 
 

@@ -1,0 +1,163 @@
+"""Does a policy directory's learner value its own greedy episodes as they pay? Do its seeds agree?
+
+    python -m tools.experiments.value_check policies/d3dwa            # every seed-<k>/ inside
+    python -m tools.experiments.value_check runs/d3dwa/seed-0 --json  # one policy
+
+Each seed's greedy policy runs one noise-free episode on each of R1-R3 and three fresh
+generated layouts (generator seeds 2^31 + 1000, never drawn in training or by the sweep's
+first layouts), scored by the training env's own reward at the seed's ``reward_scale``. Per seed
+it prints the value calibration (docs/design.md#value-calibration): the mean Q(s, a) of the
+visited pairs against the discounted return they earned, at the seed's own gamma, with the
+ratio (or, where the mean return is under 0.1 in magnitude, the gap) and the verdict. Then,
+over every state any seed visited, how often two seeds pick the same greedy action (chance is
+1 / |actions| for unrelated choosers), and the median gap between a state's best and second
+best Q. Nothing is selected by it: it is a diagnostic, not a checkpoint rule.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from d3dwa_bullet.errors import D3DWAError
+from d3dwa_bullet.learning.agents.checkpoint import META_FILE, load_checkpoint
+from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
+from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
+from d3dwa_bullet.learning.agents.policy import greedy_policy, taken_q_values
+from d3dwa_bullet.learning.training import load_train_config
+from d3dwa_bullet.learning.training.config import make_env
+from d3dwa_bullet.learning.training.greedy_eval import GreedyEpisode, greedy_episode
+from d3dwa_bullet.learning.value_calibration import calibrate
+from d3dwa_bullet.seed_dirs import seed_dirs
+from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
+
+LAYOUT_SEED = UNSEEN_LAYOUT_SEED_BASE + 1000
+WORLDS = ("R1", "R2", "R3", *(f"{s}-style-s{LAYOUT_SEED}" for s in ("R1", "R2", "R3")))
+
+
+class NoPolicyError(D3DWAError, ValueError):
+    """A directory with neither a policy nor seed-<k>/ policies in it."""
+
+
+def policy_dirs(path: Path) -> dict[str, Path]:
+    """label -> policy folder: the folder itself, or each of its seed-<k>/ folders."""
+    if (path / META_FILE).is_file():
+        return {path.name: path}
+    seeds = {f"seed-{k}": p for k, p in seed_dirs(path).items() if (p / META_FILE).is_file()}
+    if not seeds:
+        raise NoPolicyError(
+            f"{path}: no policy here (no {META_FILE}, no seed-<k>/{META_FILE}); give a policy "
+            "directory such as policies/d3dwa"
+        )
+    return seeds
+
+
+def load(path: Path) -> tuple[D3QNAgent | DQDWAAgent, Any]:
+    """The agent of a policy folder and the training config beside it."""
+    config = load_train_config(path / "config.json")
+    agent, _ = load_checkpoint(path, expected_layout=config.obs_layout, reader=str(path))
+    return agent, config  # type: ignore[return-value]
+
+
+def episodes_of(agent: D3QNAgent | DQDWAAgent, config: Any) -> list[GreedyEpisode]:
+    env = make_env(config, worlds=WORLDS, allow_eval_worlds=True)
+    policy = greedy_policy(agent)
+    try:
+        return [greedy_episode(env, policy, w, "none", 0) for w in WORLDS]
+    finally:
+        env.close()
+
+
+def q_table(agent: D3QNAgent | DQDWAAgent, obs: np.ndarray) -> np.ndarray:
+    """All actions' Q for a batch of observations (T, n_actions)."""
+    if isinstance(agent, D3QNAgent):
+        return agent.q_values(obs.astype(np.float32)).astype(np.float64)
+    return np.stack([agent.table[agent.discretisation.state_index(o)] for o in obs])
+
+
+def check(path: Path) -> dict[str, Any]:
+    """Every figure of the module docstring for one policy directory."""
+    agents = {label: load(p) for label, p in policy_dirs(path).items()}
+    seeds, states = [], []
+    for label, (agent, config) in agents.items():
+        print(f"value_check: {label}: {len(WORLDS)} greedy episodes", file=sys.stderr)
+        eps = episodes_of(agent, config)
+        cal = calibrate(
+            [taken_q_values(agent, e.obs, e.actions) for e in eps],
+            [e.rewards for e in eps],
+            agent.config.gamma,
+        )
+        states.append(np.concatenate([e.obs for e in eps]))
+        seeds.append({
+            "policy": label, "gamma": agent.config.gamma,
+            "outcomes": {e.world: e.outcome for e in eps}, **cal.to_dict(),
+            "judged_by": cal.judged_by,
+        })  # fmt: skip
+    visited = np.concatenate(states)
+    tables = {label: q_table(agent, visited) for label, (agent, _) in agents.items()}
+    greedy = {label: t.argmax(axis=1) for label, t in tables.items()}
+    pairs = [float(np.mean(greedy[a] == greedy[b])) for a, b in itertools.combinations(greedy, 2)]
+    n_actions = next(iter(tables.values())).shape[1]
+    gaps = {}
+    for label, t in tables.items():
+        top2 = np.sort(t, axis=1)[:, -2:]
+        gaps[label] = float(np.median(top2[:, 1] - top2[:, 0]))
+    return {
+        "directory": str(path),
+        "worlds": list(WORLDS),
+        "seeds": seeds,
+        "states": len(visited),
+        "agreement": float(np.mean(pairs)) if pairs else None,
+        "agreement_pairs": len(pairs),
+        "chance": 1.0 / n_actions,
+        "median_best_gap": gaps,
+    }
+
+
+def describe(result: dict[str, Any]) -> str:
+    lines = [
+        f"{result['directory']}: greedy episodes on {', '.join(result['worlds'])}, no noise",
+        "| policy | gamma | goals | mean Q | discounted return | ratio | gap | tracks? "
+        "| best - 2nd best Q (median) |",
+        "|---|---:|---:|---:|---:|---:|---:|---|---:|",
+    ]
+    for s in result["seeds"]:
+        goals = sum(o == "goal" for o in s["outcomes"].values())
+        ratio = "--" if s["ratio"] is None else f"{s['ratio']:.2f}"
+        lines.append(
+            f"| {s['policy']} | {s['gamma']} | {goals}/{len(s['outcomes'])} | {s['mean_q']:.3f} "
+            f"| {s['mean_return']:.3f} | {ratio} | {s['gap']:+.3f} "
+            f"| {'yes' if s['calibrated'] else 'NO'} ({s['judged_by']}) "
+            f"| {result['median_best_gap'][s['policy']]:.4f} |"
+        )
+    if result["agreement"] is not None:
+        lines.append(
+            f"greedy-action agreement over {result['agreement_pairs']} seed pairs on "
+            f"{result['states']} visited states: {result['agreement']:.3f} "
+            f"(chance {result['chance']:.3f})"
+        )
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m tools.experiments.value_check")
+    ap.add_argument("directory", type=Path, help="a policy folder, or a folder of seed-<k>/")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    try:
+        result = check(args.directory)
+    except (D3DWAError, OSError) as err:
+        print(f"value_check: error: {err}", file=sys.stderr)
+        return 2
+    print(json.dumps(result, indent=1) if args.json else describe(result))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
