@@ -35,6 +35,7 @@ from d3dwa_bullet.params import ObservationParams  # noqa: E402
 from d3dwa_bullet.sim.lidar_params import LidarParams  # noqa: E402
 from d3dwa_bullet.sim.scan import LaserScan  # noqa: E402
 from d3dwa_bullet.world.registry import load_world  # noqa: E402
+from tests.learning.test_onnx_guard import nan_on_a_free_sector  # noqa: E402
 from tests.support.cli import refused  # noqa: E402
 from transfer.sim_bridge import ReplayPipeline  # noqa: E402
 
@@ -273,3 +274,15 @@ def test_a_healthy_run_is_not_held(serve):
     finally:
         link.close()
     assert result.outcome == "goal" and result.stopped
+
+
+def test_an_onnx_policy_that_returns_nan_stops_the_robot_with_one_line(capsys, serve, tmp_path):
+    """A bad decision is a stop and one line, never action 0 (issue 31)."""
+    file = tmp_path / "nan.onnx"
+    file.write_bytes(nan_on_a_free_sector().SerializeToString())
+    sim, address = serve(load_world("R1"), mode="lockstep")
+    args = ("drive", "--kachaka", address, "--goal", "3,0", "--method", "d3dwa", "--onnx")
+    line = refused(capsys, *args, file, *PATIENT)
+    assert str(file) in line and "Q-values are NaN or inf" in line
+    assert "the robot was stopped after 0 commands" in line
+    assert sim.received == [] and sim.requests[-1][:2] == (0.0, 0.0)
