@@ -126,6 +126,21 @@ MAX_POLICY_BYTES = Limit(64 * 2**20, "an exported policy network is a few hundre
 the shipped networks export to 90-130 kB; 64 MiB leaves room for networks a thousand
 times larger."""
 
+MAX_ONNX_NODES = Limit(1_000, "an exported policy has two nodes per layer and five more")
+"""Operators in an ONNX policy's graph: the shipped networks have 9 (two hidden layers)."""
+
+MAX_ONNX_ELEMENTS = Limit(2**24, "one inference holds every weight and intermediate in memory")
+"""Float values one inference of one observation holds, weights and every intermediate
+tensor counted (64 MiB of float32): the shipped networks hold 20-40 thousand. A graph of
+allowed operators can still broadcast two small weight vectors into a terabyte tensor; this
+refuses it before it runs (``learning/agents/onnx_graph.py``)."""
+
+MAX_ONNX_MACS = Limit(2**25, "a decision must fit well inside one 0.1 s control period")
+"""Multiply-adds of one inference of one observation (Gemm's M x K x N plus one per element
+of every other operator's output): about 20-40 ms on one core at the bound, against 20-40
+thousand (0.02-0.04 ms) for the shipped networks. A slower decision would be the
+watchdog's to stop (``d3dwa drive --watchdog``)."""
+
 REPLAY_MEMORY_FRACTION = 0.5
 """A replay buffer may take at most this fraction of the memory available when it is
 allocated (or when the training config is read), so training never pushes the machine into

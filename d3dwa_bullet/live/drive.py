@@ -8,9 +8,12 @@ send it. The goal is in the odometry frame the robot reports, as ``replay`` take
 
 The episode is judged on what the robot reports, as a robot can only: collision when the
 smallest valid scan range is below the collision distance, goal when the odometry pose is
-within the goal tolerance, timeout after ``time_limit * control_hz`` commands. Every way out
-(those three, a stale or missing reading, a gRPC error or deadline, any exception, Ctrl-C,
-the watchdog) ends in ``set_robot_stop``.
+within the goal tolerance, timeout after ``time_limit * control_hz`` commands. Every reading
+is held to the contract the robot's sensors started with (``safety.ScanContract``,
+``safety.OdometryCheck``): a blind scan is not decided on (a zero command holds the robot
+still), a few in a row, a scan of another layout or odometry that makes no physical sense
+end the run. Every way out (those three, a stale, missing or broken reading, a gRPC error
+or deadline, any exception, Ctrl-C, the watchdog) ends in ``set_robot_stop``.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ import math
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -29,8 +32,15 @@ from d3dwa_bullet.episode_metrics import posture_displacement, trajectory_length
 from d3dwa_bullet.errors import ConfigError, ScanError
 from d3dwa_bullet.geometry import body_clearance_to_points, wrap_angle
 from d3dwa_bullet.live.link import KachakaLink, Reading
-from d3dwa_bullet.live.safety import Freshness, SpeedLimits, Watchdog, deferred_interrupts
-from d3dwa_bullet.planning.observation import sector_ranges
+from d3dwa_bullet.live.safety import (
+    Freshness,
+    OdometryCheck,
+    ScanContract,
+    SpeedLimits,
+    Watchdog,
+    deferred_interrupts,
+    empty_sectors,
+)
 from d3dwa_bullet.planning.planner import PlannerAction
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D, scan_points_body
 from transfer.replay_step import ScanStep, SkipScan, StepOutput
@@ -116,9 +126,7 @@ def check_scan_layout(scan: LaserScan, mount: Pose2D, config: EpisodeConfig) -> 
     policy's K sectors; one that leaves a sector empty would make it read "free" forever.
     """
     obs = config.observation
-    reach = min(scan.range_max, obs.d_max)
-    probe = replace(scan, ranges=np.full(scan.ranges.size, reach), range_min=0.0)
-    empty = np.flatnonzero(~np.isfinite(sector_ranges(scan_points_body(probe, mount), obs)))
+    empty = empty_sectors(scan, np.ones(scan.ranges.size, dtype=bool), mount, obs)
     if empty.size:
         angles = np.degrees(scan.angles + mount.yaw)
         raise ScanError(
@@ -178,9 +186,11 @@ def drive(
 
     Checks before the first command: the robot's API version, that it serves a scan and
     odometry, the scan's beam layout (:func:`check_scan_layout`) and the goal against its
-    map (:func:`check_goal_on_map`). result: filled in place (pass one to keep what a run
-    that raises did). RobotLinkError on a lost, late or stale robot; the exception of any
-    other failure, after the stop.
+    map (:func:`check_goal_on_map`). Then every reading is checked against the first scan's
+    contract (``safety.ScanContract``: ScanError) and for sane odometry
+    (``safety.OdometryCheck``: RobotLinkError). result: filled in place (pass one to keep
+    what a run that raises did). RobotLinkError on a lost, late or stale robot; the
+    exception of any other failure, after the stop.
     """
     out = result if result is not None else DriveResult()
     watchdog = Watchdog(settings.watchdog_s, link.stop)
@@ -214,6 +224,12 @@ def _loop(
     link.check_version()
     first = link.read()
     check_scan_layout(first.scan, mount, config)
+    contract = ScanContract(first.scan, mount, config.observation)
+    limits = config.planner.limits
+    odometry = OdometryCheck(
+        max(limits.v_max, settings.limits.v_max), max(limits.w_max, settings.limits.w_max)
+    )
+    odometry.check(first, link.address)  # before the goal is placed by it
     check_goal_on_map(link, settings.goal, first.odometry)
     watchdog.start()
     deadline = time.monotonic()
@@ -224,6 +240,8 @@ def _loop(
             reading = link.read()
         stamps = {"scan": reading.scan.stamp_ns, "odometry": reading.odometry.stamp_ns}
         fresh.check(stamps, time.monotonic(), link.address)
+        odometry.check(reading, link.address)
+        blind = contract.check(reading.scan)
         pose = reading.odometry.pose
         out.poses.append(pose)
         points = scan_points_body(reading.scan, mount)
@@ -238,9 +256,12 @@ def _loop(
             out.outcome = "timeout"
         if out.outcome is not None:
             return
-        decided = _decide(pipeline, reading, mount, goal)
-        assert decided.cmd is not None
-        command = settings.limits.clamp(*decided.cmd)
+        if blind is None:
+            decided = _decide(pipeline, reading, mount, goal)
+            assert decided.cmd is not None
+            command = settings.limits.clamp(*decided.cmd)
+        else:  # never decide on what the robot cannot see: hold still
+            decided, command = _hold(reading), (0.0, 0.0)
         watchdog.send(link.command, *command)
         out.steps += 1
         out.commands.append(command)
@@ -274,6 +295,12 @@ def _decide(pipeline: ReplayPipeline, reading: Reading, mount: Pose2D, goal: np.
         return pipeline(step)
     except SkipScan as err:
         raise ScanError(f"cannot decide at stamp {step.t_ns} ns: {err.reason}") from err
+
+
+def _hold(reading: Reading) -> StepOutput:
+    """The step of a blind scan: no observation, no decision, a zero command."""
+    odom = reading.odometry
+    return StepOutput(np.zeros(0), odom.pose, odom.twist, cmd=(0.0, 0.0))
 
 
 def _pace(deadline: float, period: float, interrupted: threading.Event) -> float:

@@ -3,7 +3,8 @@
 One set of messages per command, received at the scan's stamp (the robot's clock): the
 odometry (+ ``/tf`` odom -> base_link) and, where served, wheel odometry and IMU, each with
 its own header stamp; the scan; the command sent (after the clamp); the planner parameters
-[wp, wc, ws, tau, action_index]. The goal and the sensor mounts are written once. After the
+[wp, wc, ws, tau, action_index] (none at a blind scan's hold, where nothing was decided).
+The goal and the sensor mounts are written once. After the
 run, the stop is written as a zero command 1 ns after the last step. ``d3dwa replay`` and
 ``compare-scans`` read the bag like any recorded one; a run that fails or is interrupted
 keeps every step written (the caller's ``with BagRecorder(...)`` closes it).
@@ -36,7 +37,9 @@ class DriveRecorder:
             rec.write_imu(t, reading.imu_w, stamp_ns=reading.imu_stamp_ns)
         rec.write_scan(t, reading.scan)
         rec.write_cmd(t, command)
-        assert decided.weights is not None and decided.tau is not None
+        if decided.weights is None or decided.tau is None:  # a hold: nothing was decided
+            self.last_ns = t
+            return
         index = -1 if decided.action is None else decided.action
         rec.write_params(t, (*decided.weights, decided.tau, float(index)))
         self.last_ns = t

@@ -1,9 +1,10 @@
 """What keeps the live loop safe besides its ``finally: stop``: the command clamp, the
-staleness check of what the robot serves, and a watchdog thread that stops the robot when
-the loop itself stalls (docs/design.md#live).
+staleness check of what the robot serves, the contract its sensors started with (the scan's
+layout and readings, odometry that makes physical sense), and a watchdog thread that stops
+the robot when the loop itself stalls (docs/design.md#live).
 
-The three exits they add to the loop's own (goal, collision, timeout, an error, Ctrl-C) all
-end where every exit ends: in ``set_robot_stop``.
+The exits they add to the loop's own (goal, collision, timeout, an error, Ctrl-C) all end
+where every exit ends: in ``set_robot_stop``.
 """
 
 from __future__ import annotations
@@ -14,9 +15,15 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from d3dwa_bullet.errors import ConfigError, RobotLinkError
+import numpy as np
+
+from d3dwa_bullet.errors import ConfigError, RobotLinkError, ScanError
+from d3dwa_bullet.live.link import Reading
+from d3dwa_bullet.params import ObservationParams
+from d3dwa_bullet.planning.observation import sector_ranges
+from d3dwa_bullet.sim.scan import LaserScan, Pose2D, scan_points_body
 
 KACHAKA_LIMITS = (0.3, 1.57)
 """The Kachaka API's velocity limits (kachaka_api.base MAX_LINEAR/ANGULAR_VELOCITY): m/s, rad/s."""
@@ -81,6 +88,140 @@ class Freshness:
                     f"{where}: stale {name}: {(newest - stamp) / 1e9:.2f} s older than the "
                     f"{newest_name} (limit {self.limit_s:g} s)"
                 )
+
+
+MIN_READING_FRACTION = 0.5
+"""A scan is *blind* when fewer than this fraction of its beams read, or when an observation
+sector holds no beam that reads. A beam reads when it returns a range within [range_min,
+range_max], or REP-117's +inf (nothing within range) or -inf (too close); NaN, 0, negative
+and other out-of-range values read nothing. The simulated lidar reads on every beam, the
+``harsh`` profile's dropouts blank about 5 % of them."""
+BLIND_SCANS = 3
+"""Blind scans in a row that end a run (0.3 s at 10 Hz). The loop never decides on a blind
+scan: it sends a zero command (the robot holds still) and reads the next one."""
+LAYOUT_TOLERANCE = 1e-6
+"""How far a scan's angles (rad) and range limits (m) may drift from the first scan's."""
+ODOMETRY_SPEED_FACTOR = 2.0
+"""Odometry may move at most this many times the robot's speed limits between two readings
+(and report a twist within them), plus ``ODOMETRY_SLACK``."""
+ODOMETRY_SLACK = (0.5, 0.5)
+"""m, rad: what a fused estimate may jump on a correction beyond that (the ``harsh``
+profile's map fixes move the simulated estimate by up to 0.21 m and 0.16 rad in one step)."""
+
+
+def reading_mask(scan: LaserScan) -> np.ndarray:
+    """(N,) bool: the beams that read (see ``MIN_READING_FRACTION``)."""
+    return scan.valid_mask() | np.isinf(scan.ranges)
+
+
+def empty_sectors(
+    scan: LaserScan, reads: np.ndarray, mount: Pose2D, obs: ObservationParams
+) -> np.ndarray:
+    """Indices of the observation sectors that none of the beams ``reads`` ((N,) bool) falls
+    in: the observation would read free space there, whatever is in front of the robot."""
+    reach = min(scan.range_max, obs.d_max)
+    probe = replace(scan, ranges=np.where(reads, reach, np.nan), range_min=0.0)
+    return np.flatnonzero(~np.isfinite(sector_ranges(scan_points_body(probe, mount), obs)))
+
+
+def _layout(scan: LaserScan) -> tuple[int, float, float, float, float]:
+    """(beams, first angle rad, last angle rad, range_min m, range_max m)."""
+    n = scan.ranges.size
+    last = scan.angle_min + (n - 1) * scan.angle_increment
+    return n, scan.angle_min, last, scan.range_min, scan.range_max
+
+
+class ScanContract:
+    """What the robot's first scan promised, held against every later scan.
+
+    Layout: the same beam count, first and last beam angle (the field of view) and range
+    limits (to ``LAYOUT_TOLERANCE``); a change is a ScanError at once. Readings: a blind scan
+    (``MIN_READING_FRACTION``) is never decided on; ``BLIND_SCANS`` of them in a row are a
+    ScanError. ``check`` returns why a scan is blind, or None.
+    """
+
+    def __init__(self, first: LaserScan, mount: Pose2D, obs: ObservationParams) -> None:
+        self.layout = _layout(first)
+        self.mount, self.obs = mount, obs
+        self.blind = 0
+        """Blind scans in a row so far."""
+
+    def check(self, scan: LaserScan) -> str | None:
+        self._check_layout(scan)
+        reads = reading_mask(scan)
+        reason = None
+        if reads.mean() < MIN_READING_FRACTION:
+            reason = f"{int(reads.sum())} of {reads.size} beams read"
+        else:
+            empty = empty_sectors(scan, reads, self.mount, self.obs)
+            if empty.size:
+                reason = f"no beam reads in sector(s) {', '.join(map(str, empty))}"
+        self.blind = self.blind + 1 if reason is not None else 0
+        if self.blind >= BLIND_SCANS:
+            raise ScanError(
+                f"the robot's scan is blind for {self.blind} scans in a row (at stamp "
+                f"{scan.stamp_ns} ns: {reason}; a scan must read on >= "
+                f"{MIN_READING_FRACTION:.0%} of its beams and in each of the "
+                f"{self.obs.sectors} observation sectors); refusing to drive blind"
+            )
+        return reason
+
+    def _check_layout(self, scan: LaserScan) -> None:
+        have, want = _layout(scan), self.layout
+        names = ("beams", "first angle", "last angle", "range_min", "range_max")
+        for name, got, first in zip(names, have, want, strict=True):
+            if abs(got - first) > LAYOUT_TOLERANCE:
+                raise ScanError(
+                    f"the robot's scan changed its layout mid-run (at stamp {scan.stamp_ns} "
+                    f"ns): {name} {got:.6g}, was {first:.6g} at the start; refusing to drive "
+                    "on a lidar that no longer meets its first scan's contract"
+                )
+
+
+class OdometryCheck:
+    """Odometry that makes physical sense, or a RobotLinkError naming what does not.
+
+    Every served number finite (fused odometry, wheel odometry, gyro); the fused twist
+    within ``ODOMETRY_SPEED_FACTOR`` x (v_max, w_max); and between two readings the pose may
+    move at most that speed over the time between their stamps, plus ``ODOMETRY_SLACK``.
+    """
+
+    def __init__(self, v_max: float, w_max: float) -> None:
+        self.v_max = ODOMETRY_SPEED_FACTOR * v_max
+        self.w_max = ODOMETRY_SPEED_FACTOR * w_max
+        self._last: tuple[tuple[float, float, float], int] | None = None
+
+    def check(self, reading: Reading, where: str) -> None:
+        odom = reading.odometry
+        values = {"odometry pose": odom.pose, "odometry twist": odom.twist}
+        if reading.wheel is not None:
+            values |= {"wheel odometry pose": reading.wheel.pose}
+            values |= {"wheel odometry twist": reading.wheel.twist}
+        if reading.imu_w is not None:
+            values["gyro yaw rate"] = (reading.imu_w,)
+        for name, value in values.items():
+            if not all(math.isfinite(x) for x in value):
+                raise RobotLinkError(f"{where} serves a non-finite {name} {tuple(value)}")
+        v, w = odom.twist
+        if abs(v) > self.v_max or abs(w) > self.w_max:
+            raise RobotLinkError(
+                f"{where} serves an odometry twist ({v:.3g} m/s, {w:.3g} rad/s) beyond "
+                f"{self.v_max:g} m/s, {self.w_max:g} rad/s, which the robot cannot reach"
+            )
+        if self._last is not None:
+            (x0, y0, t0), stamp0 = self._last
+            dt = max(odom.stamp_ns - stamp0, 0) / 1e9
+            moved = math.hypot(odom.pose[0] - x0, odom.pose[1] - y0)
+            turned = abs(math.remainder(odom.pose[2] - t0, math.tau))
+            move_max = self.v_max * dt + ODOMETRY_SLACK[0]
+            turn_max = self.w_max * dt + ODOMETRY_SLACK[1]
+            if moved > move_max or turned > turn_max:
+                raise RobotLinkError(
+                    f"{where} serves odometry that jumped {moved:.3g} m and {turned:.3g} rad "
+                    f"in {dt:.3g} s (at most {move_max:.3g} m and {turn_max:.3g} rad are "
+                    "possible)"
+                )
+        self._last = (odom.pose, odom.stamp_ns)
 
 
 class Watchdog:

@@ -14,7 +14,8 @@ for opset 17 with the lowest IR version that carries it, so any onnxruntime from
 (the ``robot`` extra asks for >= 1.18) reads it.
 
 Every export is checked before a byte is written: ``onnx.checker`` (with shape inference),
-then the runner loads it from memory exactly as a robot would, and its Q-values on
+then the runner loads it from memory exactly as a robot would (so an export must pass the
+runner's own graph check, ``onnx_graph``: its operator allowlist is what this module emits), and its Q-values on
 ``CHECK_OBSERVATIONS`` sampled observations must match the torch network's within
 ``Q_TOLERANCE`` (relative to the largest |Q|), with the same greedy action wherever torch's
 best two actions are further apart than that. Only then is the file written, atomically
@@ -24,7 +25,6 @@ best two actions are further apart than that. Only then is the file written, ato
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -39,6 +39,7 @@ from d3dwa_bullet.io import atomic_write_bytes
 from d3dwa_bullet.learning.agents.checkpoint import WEIGHTS_FILE, load_checkpoint, read_meta
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 from d3dwa_bullet.learning.agents.network import DuelingQNetwork
+from d3dwa_bullet.learning.agents.onnx_graph import OPSET
 from d3dwa_bullet.learning.agents.onnx_policy import (
     INPUT_NAME,
     INSTALL_HINT,
@@ -46,13 +47,12 @@ from d3dwa_bullet.learning.agents.onnx_policy import (
     OnnxGreedyPolicy,
     metadata_props,
     onnx_policy_from_bytes,
+    sample_observations,
 )
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.progress import kind_of_layout, observation_layout
 from d3dwa_bullet.resources import policies_dir
 
-OPSET = 17
-"""ONNX operator set of exported graphs (ReduceMean still takes its axes as an attribute)."""
 CHECK_OBSERVATIONS = 1_000
 """Sampled observations every export is checked on (a few milliseconds)."""
 Q_TOLERANCE = 2e-6
@@ -61,8 +61,6 @@ float32 roundings of the largest Q-value. The same sums in another order (onnxru
 Gemm against torch's) differ by 2-5e-7 of it on the shipped policies; torch alone, batch of
 one against batch of many, differs by as much. An absolute bound would not do: shipped
 Q-values reach 130, where one float32 step is 1.5e-5."""
-SIGNED_ENTRIES = frozenset({"theta_goal", "v", "w"})
-"""Observation entries in [-1, 1] (bearing, velocities); every other entry is in [0, 1]."""
 
 
 @dataclass(frozen=True)
@@ -83,14 +81,6 @@ class ExportResult:
     """Fraction of the checked observations on which both pick the same greedy action."""
     checked: int
     """Number of observations checked."""
-
-
-def sample_observations(layout: Sequence[str], n: int, seed: int) -> np.ndarray:
-    """(n, len(layout)) float32 observations in their entries' ranges (SIGNED_ENTRIES in
-    [-1, 1], the rest in [0, 1]), uniform, from ``seed``: what a check or a benchmark feeds."""
-    rng = np.random.default_rng(seed)
-    low = np.array([-1.0 if name in SIGNED_ENTRIES else 0.0 for name in layout])
-    return rng.uniform(low, 1.0, (n, len(layout))).astype(np.float32)
 
 
 def q_values(network: DuelingQNetwork, obs: np.ndarray) -> np.ndarray:

@@ -11,12 +11,20 @@ counts, network widths) and the format version of this description.
 ``load_onnx_policy`` mirrors ``policy.load_policy``: (policy, action set, meta), and a
 ``CheckpointError`` of one line naming the file for anything that does not fit (not a file,
 not ONNX, not ours, another format version, another observation kind or action set, a graph
-whose signature disagrees with its metadata, onnxruntime not installed).
+whose signature disagrees with its metadata, onnx or onnxruntime not installed).
 
-This module imports numpy and the pure planning layer only, never torch; onnxruntime is
-imported when a file is loaded (it is the optional ``robot`` extra). The greedy action is
-the argmax of the Q-values (the lowest index on an exact tie, as numpy's argmax); it agrees
-with the torch and numpy policies except where two Q-values tie to within float32 rounding.
+A file is a program, so it is not trusted: before onnxruntime sees it, its graph must be
+the kind the exporter writes (``onnx_graph.check_graph``: its operators, weights inside the
+file, bounded memory and work per inference), and its Q-values on ``PROBE_OBSERVATIONS``
+observations must come out finite. Then at every inference, a failure of the runtime, an
+output of the wrong shape or a NaN or inf Q-value is a CheckpointError naming the file:
+no action is ever chosen from values that are not numbers.
+
+This module imports numpy and the pure planning layer only, never torch; onnx and
+onnxruntime are imported when a file is loaded (the optional ``robot`` extra). The greedy
+action is the argmax of the Q-values (the lowest index on an exact tie, as numpy's argmax);
+it agrees with the torch and numpy policies except where two Q-values tie to within float32
+rounding.
 """
 
 from __future__ import annotations
@@ -24,13 +32,14 @@ from __future__ import annotations
 import json
 import os
 import stat
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from d3dwa_bullet.errors import CheckpointError, ConfigError
+from d3dwa_bullet.learning.agents.onnx_graph import GraphCost, check_graph
 from d3dwa_bullet.limits import MAX_POLICY_BYTES
 from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.planning.actions import ActionSet
@@ -51,7 +60,19 @@ METADATA_KEYS = {
 }
 """Field -> metadata_props key of an exported policy."""
 INSTALL_HINT = "pip install 'd3dwa-bullet[robot]'"
+PROBE_OBSERVATIONS = 64
+"""Sampled observations (and the all-zero one) a file's Q-values must be finite on to load."""
+SIGNED_ENTRIES = frozenset({"theta_goal", "v", "w"})
+"""Observation entries in [-1, 1] (bearing, velocities); every other entry is in [0, 1]."""
 _ONE_LINE = 300  # characters of a library's own message kept in ours
+
+
+def sample_observations(layout: Sequence[str], n: int, seed: int) -> np.ndarray:
+    """(n, len(layout)) float32 observations in their entries' ranges (SIGNED_ENTRIES in
+    [-1, 1], the rest in [0, 1]), uniform, from ``seed``: what a check or a benchmark feeds."""
+    rng = np.random.default_rng(seed)
+    low = np.array([-1.0 if name in SIGNED_ENTRIES else 0.0 for name in layout])
+    return rng.uniform(low, 1.0, (n, len(layout))).astype(np.float32)
 
 
 def metadata_props(
@@ -129,20 +150,26 @@ class OnnxGreedyPolicy:
     """argmax_a Q(s, a) of an onnxruntime session over an exported policy.
 
     ``__call__(obs)``: one observation (obs_dim,) -> the action index (int).
-    ``q_values(obs)``: (B, obs_dim) -> (B, n_actions) float32 Q-values.
+    ``q_values(obs)``: (B, obs_dim) -> (B, n_actions) float32 Q-values, run in batches of
+    ``cost.rows_per_run()`` so that no run holds more than the graph check allows.
+    Either raises CheckpointError (naming ``where``) if the runtime fails or the Q-values
+    are not (B, n_actions) finite numbers.
     """
 
-    def __init__(self, session: Any, obs_dim: int, n_actions: int) -> None:
+    def __init__(
+        self, session: Any, obs_dim: int, n_actions: int, where: str, cost: GraphCost
+    ) -> None:
         self._session = session
         self.obs_dim = int(obs_dim)
         self.n_actions = int(n_actions)
+        self.where = where
+        self._rows = cost.rows_per_run()
         self._input = np.empty((1, self.obs_dim), dtype=np.float32)
         self._outputs = [OUTPUT_NAME]
 
     def __call__(self, obs: np.ndarray) -> int:
         self._input[0] = obs  # raises on a wrong shape; casts to float32
-        q = self._session.run(self._outputs, {INPUT_NAME: self._input})[0]
-        return int(q[0].argmax())
+        return int(self._run(self._input)[0].argmax())
 
     def q_values(self, obs: np.ndarray) -> np.ndarray:
         batch = np.ascontiguousarray(obs, dtype=np.float32)
@@ -150,7 +177,34 @@ class OnnxGreedyPolicy:
             raise ValueError(
                 f"q_values: expected (B, {self.obs_dim}) observations, got {batch.shape}"
             )
-        return np.asarray(self._session.run(self._outputs, {INPUT_NAME: batch})[0])
+        if len(batch) <= self._rows:
+            return self._run(batch)
+        rows = self._rows
+        return np.concatenate([self._run(batch[i : i + rows]) for i in range(0, len(batch), rows)])
+
+    def _run(self, batch: np.ndarray) -> np.ndarray:
+        try:
+            q = np.asarray(self._session.run(self._outputs, {INPUT_NAME: batch})[0])
+        except Exception as err:  # onnxruntime raises its own types (Fail, RuntimeException)
+            reason = " ".join(str(err).split())[:_ONE_LINE]
+            raise CheckpointError(
+                f"{self.where}: the policy failed to run on {len(batch)} observation(s) "
+                f"({type(err).__name__}: {reason})"
+            ) from err
+        if q.shape != (len(batch), self.n_actions) or q.dtype != np.float32:
+            raise CheckpointError(
+                f"{self.where}: the policy returned {q.dtype} {q.shape} for {len(batch)} "
+                f"observation(s), not float32 ({len(batch)}, {self.n_actions}) Q-values"
+            )
+        finite = np.isfinite(q).all(axis=1)
+        if not finite.all():
+            row = int(np.flatnonzero(~finite)[0])
+            shown = np.array2string(batch[row], precision=3, max_line_width=10**6)
+            raise CheckpointError(
+                f"{self.where}: the policy's Q-values are NaN or inf for observation {shown}; "
+                "refusing to choose an action from them"
+            )
+        return q
 
 
 def load_onnx_policy(
@@ -179,8 +233,7 @@ def onnx_metadata(file: str | os.PathLike[str]) -> dict[str, Any]:
     checked as ``load_onnx_policy`` checks it but against no method: for a caller that
     takes the method from the file (``meta["method"]``) before loading it for that method."""
     path = Path(file)
-    session = _session(read_model_bytes(path), str(path))
-    meta = read_metadata(session.get_modelmeta().custom_metadata_map, str(path))
+    meta, _, session = _checked_session(read_model_bytes(path), str(path))
     _check_signature(session, meta["observation"]["dim"], meta["actions"].size, str(path))
     meta["file"] = str(path)
     return meta
@@ -218,8 +271,7 @@ def onnx_policy_from_bytes(
     expected_observation: tuple[str, str] = ("paper", "the caller"),
 ) -> tuple[OnnxGreedyPolicy, ActionSet, dict[str, Any]]:
     """``load_onnx_policy`` of a model already in memory (``where`` names it in messages)."""
-    session = _session(data, where)
-    meta = read_metadata(session.get_modelmeta().custom_metadata_map, where)
+    meta, cost, session = _checked_session(data, where)
     actions: ActionSet = meta["actions"]
     kind, reader = expected_observation
     have = meta["observation"]
@@ -235,16 +287,34 @@ def onnx_policy_from_bytes(
             f"{expected_actions.to_dict()} {reader} decodes"
         )
     _check_signature(session, have["dim"], actions.size, where)
-    policy = OnnxGreedyPolicy(session, have["dim"], actions.size)
-    probe = policy.q_values(np.zeros((1, have["dim"]), dtype=np.float32))
-    if probe.shape != (1, actions.size) or not np.all(np.isfinite(probe)):
-        raise CheckpointError(
-            f"{where}: the graph returns {probe.shape} values for one observation "
-            f"({'finite' if np.all(np.isfinite(probe)) else 'NaN or inf'}); its metadata "
-            f"promises (1, {actions.size}) finite Q-values"
-        )
+    policy = OnnxGreedyPolicy(session, have["dim"], actions.size, where, cost)
+    probe = sample_observations(have["layout"], PROBE_OBSERVATIONS, seed=0)
+    policy.q_values(np.vstack([np.zeros((1, have["dim"]), dtype=np.float32), probe]))
     meta["file"] = where
     return policy, actions, meta
+
+
+def _checked_session(data: bytes, where: str) -> tuple[dict[str, Any], GraphCost, Any]:
+    """(metadata, graph cost, onnxruntime session) of a model whose description and graph
+    pass (``read_metadata``, ``onnx_graph.check_graph``); the session is made last."""
+    try:
+        # optional dependency: onnx (the `robot` extra) parses the file before it is run
+        import onnx
+    except ImportError as err:
+        raise CheckpointError(
+            f"{where}: cannot check an ONNX policy: the onnx package is not installed "
+            f"({INSTALL_HINT})"
+        ) from err
+    try:
+        model = onnx.load_model_from_string(data)
+    except Exception as err:  # protobuf's DecodeError, or onnx's own
+        reason = " ".join(str(err).split())[:_ONE_LINE]
+        raise CheckpointError(
+            f"{where}: not an ONNX model onnxruntime can load ({type(err).__name__}: {reason})"
+        ) from err
+    meta = read_metadata({p.key: p.value for p in model.metadata_props}, where)
+    cost = check_graph(model, where, INPUT_NAME, OUTPUT_NAME)
+    return meta, cost, _session(data, where)
 
 
 def _session(data: bytes, where: str) -> Any:
