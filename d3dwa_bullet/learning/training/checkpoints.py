@@ -65,6 +65,7 @@ def run_metadata(
         "noise": list(c.noise),
         "reward_scale": c.reward_scale,
         "observation": c.observation,
+        "decision_steps": c.decision_steps,  # a policy holds each action this many steps
         **dict(extra or {}),
     }
 
