@@ -156,14 +156,19 @@ def test_a_wrong_transition_misses_q_star(
     assert relative_error(q, q_star) > 3 * TOLERANCE
 
 
-@pytest.mark.slow  # a report more than a check: ~25 s on a loaded two-core machine
-def test_many_identical_actions_max_q_against_v_star(record_property: Callable) -> None:
-    """Left and 99 copies of right (the D3DWA's 100 actions): how far max_a Q rises above
-    V* (issue 29's suspected cause). Reported; asserted only loosely: a noise-free chain
-    gives no reason to overshoot by more than the tolerance."""
-    q, q_star = learn_chain(1, n_actions=100, steps=2 * STEPS)
+@pytest.mark.slow  # a report more than a check: ~25 s each on a loaded two-core machine
+@pytest.mark.parametrize(("n_actions", "reward_noise"), [(100, 0.0), (2, 0.1), (100, 0.1)])
+def test_many_identical_actions_max_q_against_v_star(n_actions: int, reward_noise: float) -> None:
+    """Left and 99 copies of right (as many actions as the D3DWA's): how far max_a Q rises
+    above V* (issue 29's suspected cause), with and without zero-mean reward noise.
+    Printed (``pytest -m slow -rP``); asserted only loosely: the
+    greedy action stays right, and a noise-free chain gives no reason to overshoot by more
+    than the tolerance."""
+    q, q_star = learn_chain(1, n_actions=n_actions, steps=4 * STEPS, reward_noise=reward_noise)
     v_star = q_star.max(axis=1)
     overshoot = (q.max(axis=1) - v_star) / v_star
-    record_property("max_q_overshoot_per_state", overshoot.round(4).tolist())
+    print(f"{n_actions} actions, reward noise {reward_noise}: (max_a Q - V*) / V* per state "
+          f"{overshoot.round(4).tolist()}")  # fmt: skip
     assert (q.argmax(axis=1) != LEFT).all()
-    assert np.abs(overshoot).max() <= TOLERANCE
+    if reward_noise == 0.0:
+        assert np.abs(overshoot).max() <= TOLERANCE, overshoot
