@@ -102,10 +102,11 @@ class _Progress(BaseCallback):
                 self.outcomes.append(str(info.get("outcome")))
         if self.num_timesteps % self.every == 0:
             recent = self.outcomes[-50:]
-            rate = recent.count("goal") / len(recent) if recent else float("nan")
+            rate = recent.count("goal") / len(recent) if recent else math.nan
+            eps = getattr(self.model, "exploration_rate", math.nan)  # a DQN's own attribute
             print(
                 f"sb3_crosscheck: {self.num_timesteps} steps, {len(self.outcomes)} episodes, "
-                f"success (last 50) {rate:.2f}, eps {self.model.exploration_rate:.3f}",
+                f"success (last 50) {rate:.2f}, eps {eps:.3f}",
                 file=sys.stderr,
                 flush=True,
             )
@@ -175,7 +176,9 @@ def crosscheck(config: TrainConfig, steps: int, seed: int) -> dict[str, Any]:
     t0 = time.perf_counter()
     model = train(config, steps, seed)
     train_s = time.perf_counter() - t0
-    model.get_env().close()
+    vec_env = model.get_env()
+    if vec_env is not None:
+        vec_env.close()
     episodes = greedy_episodes(model, config)
     values = calibrate(
         [e["q_taken"] for e in episodes], [e["rewards"] for e in episodes], agent.gamma
