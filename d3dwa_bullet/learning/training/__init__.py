@@ -8,7 +8,8 @@ Modules: ``config`` (TrainConfig and what it builds), ``run_dir`` (the files of 
 ``logs`` (episodes.csv, metrics.jsonl, learning curve), ``curriculum`` (task weights),
 ``schedule`` (when to log, evaluate, checkpoint), ``state`` (the resumable state and the
 replay that rebuilds it), ``greedy_eval`` (periodic greedy evaluation), ``checkpoints``
-(latest, best, final, export) and ``trainer`` (the loop).
+(latest, best, final, export), ``collector`` (the envs in lock-step), ``lock_step`` (one
+step of them and the transitions it gives the learner) and ``trainer`` (the loop).
 """
 
 from d3dwa_bullet.learning.training.checkpoints import export_policy

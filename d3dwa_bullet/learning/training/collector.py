@@ -19,10 +19,11 @@ from __future__ import annotations
 import functools
 import multiprocessing
 import signal
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import cv2
+import gymnasium
 import numpy as np
 from gymnasium.vector import AsyncVectorEnv, AutoresetMode, SyncVectorEnv, VectorEnv
 
@@ -68,13 +69,24 @@ def _info_rows(infos: Mapping[str, Any], n: int) -> list[dict[str, Any]]:
 class Collector:
     """The training envs of a run, stepped together (module docstring)."""
 
-    def __init__(self, config: TrainConfig, where: str = "") -> None:
+    def __init__(
+        self,
+        config: TrainConfig,
+        where: str = "",
+        env_fn: Callable[[], gymnasium.Env] | None = None,
+    ) -> None:
+        """``env_fn``: builds each env instead of ``make_env(config)`` (picklable for
+        ``vector: async``); for tests that drive the learner on another MDP."""
         check_run_limits(config)  # before a process starts or a buffer is allocated
         self.n = int(config.n_envs)
         self.where = where
         self._broken = False
         self._pending = np.zeros(self.n, dtype=np.int64)
-        factory = functools.partial(_worker_env if self._async(config) else make_env, config)
+        factory: Callable[[], gymnasium.Env]
+        if env_fn is not None:
+            factory = env_fn
+        else:
+            factory = functools.partial(_worker_env if self._async(config) else make_env, config)
         fns = [factory] * self.n
         self.envs: VectorEnv
         if self._async(config):

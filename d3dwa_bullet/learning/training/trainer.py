@@ -39,10 +39,10 @@ from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import TrainingError
 from d3dwa_bullet.learning.agents.checkpoint import Agent
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
-from d3dwa_bullet.learning.agents.replay import Transition
 from d3dwa_bullet.learning.training.collector import Collector, env_seeds
 from d3dwa_bullet.learning.training.config import TrainConfig, make_agent, make_env
 from d3dwa_bullet.learning.training.interrupt import StopOnInterrupt
+from d3dwa_bullet.learning.training.lock_step import feed, step_envs
 from d3dwa_bullet.learning.training.logs import MetricsLog
 from d3dwa_bullet.learning.training.state import (
     EpisodeProgress,
@@ -216,46 +216,30 @@ class Trainer:
         episode ended."""
         c, p = self.config, self.progress
         timing, perf = p.timing, time.perf_counter
-        t0 = perf()
-        actions = agent.act_batch(p.obs)
-        t1 = perf()
-        collector.step_async(actions)
-        t2 = perf()
-        if isinstance(agent, D3QNAgent):
-            self._log_losses(agent.update_pending())
-        t3 = perf()
-        obs2, rewards, terminated, truncated, infos = collector.step_wait()
-        t4 = perf()
-        timing["act"] += t1 - t0
-        timing["env"] += (t2 - t1) + (t4 - t3)
-        timing["learn"] += t3 - t2
+        step = step_envs(agent, collector, p.obs, self._log_losses, timing)
+        actions, rewards = step.actions, step.rewards
         done = np.zeros(collector.n, dtype=bool)
         tau_slot = self._tau_slot
         for i in range(collector.n):
             if p.env_steps >= c.total_steps:  # the budget ends inside this lock-step
                 break
-            transition = Transition(p.obs[i], int(actions[i]), float(rewards[i]), obs2[i],
-                                    bool(terminated[i]), bool(truncated[i]))  # fmt: skip
             t5 = perf()
-            if isinstance(agent, D3QNAgent):
-                agent.observe(transition)
-            else:
-                self._log_losses([agent.learn(transition)])
+            self._log_losses(feed(agent, step.transition(i)))
             timing["learn"] += perf() - t5
             p.env_steps += 1
             bar.update(1)
-            ep, info = p.episodes_in_progress[i], infos[i]
+            ep, info = p.episodes_in_progress[i], step.infos[i]
             ep.actions.append(int(actions[i]))
             ep.ret += float(rewards[i])
             ep.tau_counts[tau_slot[info["tau"]]] += 1
             ep.fallbacks += int(info["fallback"])
             if p.schedule.log.take(p.env_steps):
                 self._log_scalars(logs, agent, tasks)
-            if terminated[i] or truncated[i]:
+            if step.done[i]:
                 ep.finished = True
                 self._end_episode(logs, agent, info, bar, ep)
                 done[i] = True
-        p.obs = obs2
+        p.obs = step.next_obs
         if done.any():
             if p.schedule.eval.take(p.env_steps):
                 self._evaluate_and_keep(logs, agent, bar)
