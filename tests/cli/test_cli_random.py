@@ -62,6 +62,12 @@ def test_eval_and_sweep_refuse_a_policy_for_a_method_without_one(command, method
     assert not (tmp_path / "r").exists()
 
 
+def test_export_says_random_has_no_policy(tmp_path, capsys):
+    line = refused(capsys, "export", "--onnx", tmp_path / "out", "--method", "random")
+    assert "--method random is a reference method: it has no policy to export" in line
+    assert not (tmp_path / "out").exists()
+
+
 def test_a_negative_seed_is_refused_naming_it(one_second_world, capsys):
     line = refused(capsys, "run", "--world", one_second_world, "--method", "random",
                    "--seed", "-1")  # fmt: skip
