@@ -316,7 +316,11 @@ def run_episode(
     gui: bool = False,
     on_step: StepHook | None = None,
 ) -> EpisodeResult:
-    """Run one episode to goal, collision or timeout and return its metrics and log."""
+    """Run one episode to goal, collision or timeout and return its metrics and log.
+
+    The controller is reset with the episode seed first (:meth:`Controller.reset`), so a
+    method that draws its actions (``random``) draws the same ones for the same seed."""
+    controller.reset(seed)
     with Episode(world, seed, noise, noise_name, config, gui, controller.observation) as ep:
         while True:
             obs = ep.observe()

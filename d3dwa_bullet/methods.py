@@ -1,14 +1,19 @@
 """The methods every command and table knows, by their stable names (docs/design.md#methods).
 
 A *controller* maps an observation to the DWA parameters of one control step; the planner
-then does the rest. Fixed baselines return constants; learned methods run a greedy policy
-loaded from a checkpoint directory (``policies/<name>/`` by default, or ``--policy PATH``),
-or from an exported ONNX file (``--onnx FILE``, docs/design.md#onnx-policies).
+then does the rest. Fixed baselines return constants; the ``random`` reference method draws
+an action uniformly every step from a generator the episode seed seeds
+(:meth:`Controller.reset`); learned methods run a greedy policy loaded from a checkpoint
+directory (``policies/<name>/`` by default, or ``--policy PATH``), or from an exported ONNX
+file (``--onnx FILE``, docs/design.md#onnx-policies).
+
+Three families: ``fixed`` and ``reference`` methods need no policy (one run each, no
+training seeds); ``learned`` ones load one per training seed.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +33,13 @@ FIXED: dict[str, PlannerAction] = {
     "dwa2": PlannerAction(1.0, 2.0, 1.0, 4.0),
     "dwa3": PlannerAction(2.0, 1.0, 1.0, 4.0),
 }
+#: Reference methods and the action set each draws from uniformly, every control step: a floor
+#: a learned method must clear (docs/design.md#methods). They need no policy.
+REFERENCE: dict[str, ActionSet] = {"random": ACTIONS_FULL}
+#: The tag that keeps a reference method's draws a stream of their own: its generator is
+#: seeded by SeedSequence([episode seed, RANDOM_STREAM]), which no other draw of an episode
+#: uses (noise and the env's tasks spawn from SeedSequence(episode seed)). ASCII "rand".
+RANDOM_STREAM = 0x72616E64
 #: Learned methods and the action set their policy must have.
 LEARNED: dict[str, ActionSet] = {
     "dqdwa": ACTIONS_WEIGHTS_ONLY,
@@ -42,7 +54,9 @@ LEARNED: dict[str, ActionSet] = {
 OBSERVATIONS: dict[str, str] = {"d3dwa-pa": "progress", "d3dwa-pa-dr": "progress"}
 #: Learned methods whose policy is a network, so exports to ONNX (dqdwa's is a Q-table).
 ONNX_METHODS = tuple(m for m in LEARNED if m != "dqdwa")
-METHODS = tuple(FIXED) + tuple(LEARNED)
+METHODS = tuple(FIXED) + tuple(REFERENCE) + tuple(LEARNED)
+#: Methods that need no policy: one run each, no training seeds, no --policy / --onnx.
+NO_POLICY = frozenset(FIXED) | frozenset(REFERENCE)
 #: Methods beyond the paper (SPEC sections 4 and 6): they sit beside the paper's methods and
 #: never change the paper's track, so the main job and its tables leave them out unless named.
 BEYOND_PAPER = frozenset({"d3dwa-pa", "d3dwa-pa-dr"})
@@ -50,6 +64,7 @@ LABELS = {
     "dwa1": "DWA I (1,1,2)",
     "dwa2": "DWA II (1,2,1)",
     "dwa3": "DWA III (2,1,1)",
+    "random": f"Random (uniform over {REFERENCE['random'].size} actions)",
     "dqdwa": "DQDWA",
     "d3dwa-weights": "D3DWA (w/o horizon)",
     "d3dwa": "D3DWA",
@@ -59,10 +74,19 @@ LABELS = {
 }
 
 
+def method_family(name: str) -> str:
+    """``fixed``, ``reference`` or ``learned`` (UnknownNameError for an unknown method)."""
+    check_method(name)
+    return "fixed" if name in FIXED else "reference" if name in REFERENCE else "learned"
+
+
 @dataclass
 class Controller:
     """Chooses (action index, PlannerAction) from an observation; index -1 for fixed methods.
-    ``observation`` is the kind it reads, which the episode loop and the replay build."""
+    ``observation`` is the kind it reads, which the episode loop and the replay build.
+
+    Whatever drives a controller through an episode calls :meth:`reset` with the episode
+    seed before the first step (``run_episode`` does; a bag replay with its ``seed``)."""
 
     name: str
     fixed: PlannerAction | None = None
@@ -70,11 +94,38 @@ class Controller:
     actions: ActionSet | None = None
     source: str = ""
     observation: str = "paper"
+    uniform: bool = False
+    """Draws its index uniformly from ``actions`` every step (a reference method), ignoring
+    the observation."""
+    _rng: np.random.Generator | None = field(default=None, init=False, repr=False)
+
+    def reset(self, episode_seed: int) -> None:
+        """Start an episode. A uniform controller seeds its own generator from the episode
+        seed (``RANDOM_STREAM``): the same seed gives the same actions, and no other stream of
+        the episode is drawn from. The others keep no state across steps: nothing to do.
+        ConfigError for a seed numpy cannot take (negative)."""
+        if not self.uniform:
+            return
+        if int(episode_seed) < 0:
+            raise ConfigError(
+                f"--seed {episode_seed}: method {self.name!r} draws its actions from the "
+                "episode seed, which must be >= 0"
+            )
+        sequence = np.random.SeedSequence([int(episode_seed), RANDOM_STREAM])
+        self._rng = np.random.default_rng(sequence)
 
     def __call__(self, obs: np.ndarray) -> tuple[int, PlannerAction]:
         if self.fixed is not None:
             return -1, self.fixed
-        index = int(self.policy(obs))  # type: ignore[misc]
+        if self.uniform:
+            if self._rng is None:
+                raise RuntimeError(
+                    f"controller {self.name!r} draws from the episode seed: call "
+                    "reset(episode_seed) before the episode's first step"
+                )
+            index = int(self._rng.integers(len(self.actions)))  # type: ignore[arg-type]
+        else:
+            index = int(self.policy(obs))  # type: ignore[misc]
         return index, self.actions.decode(index)  # type: ignore[union-attr]
 
 
@@ -100,13 +151,17 @@ def make_controller(
 
     policy_path: a checkpoint directory (default: the shipped ``policies/<name>/``); onnx: an
     ONNX file exported by ``d3dwa export --onnx``, run by onnxruntime without torch (the
-    file's observation kind and action set must be the method's). Not both.
+    file's observation kind and action set must be the method's). Not both, and neither for
+    a method that needs no policy (ConfigError naming the value).
     """
     check_method(name)
+    refuse_policy(name, policy_path, onnx)
+    if name in NO_POLICY:
+        if name in FIXED:
+            return Controller(name, fixed=FIXED[name], source="fixed")
+        return Controller(name, actions=REFERENCE[name], source="reference", uniform=True)
     if onnx is not None:
         return _onnx_controller(name, policy_path, onnx)
-    if name in FIXED:
-        return Controller(name, fixed=FIXED[name], source="fixed")
     # start-up cost, and layering: loading a policy imports torch and the learning layer,
     # which fixed methods (and every pure caller of this registry) never need
     from d3dwa_bullet.learning.agents.policy import load_policy
@@ -117,6 +172,26 @@ def make_controller(
         path, expected_actions=LEARNED[name], expected_observation=(kind, f"method {name!r}")
     )
     return Controller(name, policy=policy, actions=actions, source=source, observation=kind)
+
+
+def refuse_policy(
+    name: str, policy_path: str | Path | None, onnx: str | Path | None = None
+) -> None:
+    """ConfigError if a policy (--policy or --onnx) is given to a method that needs none: it
+    would be ignored, and the run would not be what was asked for."""
+    if name not in NO_POLICY:
+        return
+    family = method_family(name)
+    if policy_path is not None:
+        raise ConfigError(
+            f"--policy {policy_path}: method {name!r} is a {family} method and needs no "
+            f"policy; --policy goes with a learned method ({', '.join(LEARNED)})"
+        )
+    if onnx is not None:
+        raise ConfigError(
+            f"{onnx}: method {name!r} does not run a network (a {family} method needs no "
+            f"policy); an ONNX policy drives one of {', '.join(ONNX_METHODS)}"
+        )
 
 
 def _onnx_controller(name: str, policy_path: str | Path | None, onnx: str | Path) -> Controller:

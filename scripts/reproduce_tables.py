@@ -1,7 +1,8 @@
 """Reproduce the paper's Table I (TS1-TS4, US1, H1-H3) and Table II (R1-R3) analogues.
 
-Evaluates every method that can run (the fixed DWA baselines plus each learned method
-whose policy exists in ``policies/<name>/``) over several seeds, then writes
+Evaluates every method that can run (the fixed DWA baselines, the ``random`` reference and
+each learned method whose policy exists in ``policies/<name>/``) over several seeds, then
+writes
 
     <out>/table1/  <out>/table2/   results.csv, logs, figures, table.md, report.md
     <tables>/table1.md  <tables>/table2.md

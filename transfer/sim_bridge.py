@@ -130,8 +130,10 @@ class _EkfEstimate:
 
 class ReplayPipeline:
     """A ``transfer.replay`` step function: one recorded scan -> estimate, observation,
-    action, planner command. Stateful in EKF mode and for a progress-aware controller (time
-    since progress on the estimate, the previous action): one instance per replay."""
+    action, planner command. Stateful in EKF mode, for a progress-aware controller (time
+    since progress on the estimate, the previous action) and for the ``random`` method (its
+    draws): one instance per replay. ``seed`` is the episode seed the controller is reset
+    with (:meth:`Controller.reset`): a recorded episode's seed replays its random actions."""
 
     def __init__(
         self,
@@ -140,11 +142,14 @@ class ReplayPipeline:
         estimator: Estimator = "odometry",
         config: EpisodeConfig = EpisodeConfig(),
         estimator_config: EstimatorConfig = EstimatorConfig(),
+        seed: int = 0,
     ) -> None:
         if estimator not in ESTIMATORS:
             raise ConfigError(
                 f"unknown estimator {estimator!r}: choose one of {', '.join(ESTIMATORS)}"
             )
+        self.seed = seed
+        controller.reset(seed)
         self.controller = controller
         self.config = config
         self.estimator = estimator
@@ -210,10 +215,14 @@ def make_step_fn(
     *,
     estimator: Estimator = "odometry",
     config: EpisodeConfig = EpisodeConfig(),
+    seed: int = 0,
 ) -> ReplayPipeline:
     """The replay step of a method (``d3dwa replay --method``); loads its policy now, so a
-    missing checkpoint fails before the bag is read."""
-    return ReplayPipeline(make_controller(method, policy), estimator=estimator, config=config)
+    missing checkpoint fails before the bag is read. seed: the episode seed (``--seed``),
+    which only the ``random`` method draws from."""
+    return ReplayPipeline(
+        make_controller(method, policy), estimator=estimator, config=config, seed=seed
+    )
 
 
 # -- recording ---------------------------------------------------------------------------

@@ -3,7 +3,7 @@
 P(A > B) (Agarwal et al., 2021) is the chance that a run of A reaches the goal more often
 than a run of B on the same task (world and noise), ties counting half, averaged over the
 tasks of a group; 0.5 is no difference. A learned method's runs are its training seeds, a
-fixed method's its evaluation seeds (:mod:`d3dwa_bullet.evaluation.seed_tables`). Groups:
+fixed or reference method's its evaluation seeds (:mod:`d3dwa_bullet.evaluation.seed_tables`). Groups:
 the shipped world groups (train, unseen, real) of a ``d3dwa eval`` directory, or the layout
 groups (shipped, generated) of a ``d3dwa sweep`` directory, each under its noise, then
 every layout under each noise, then all tasks.

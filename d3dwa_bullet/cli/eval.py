@@ -48,7 +48,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("eval", help="evaluate methods on worlds over seeds")
     p.add_argument(
         "--methods",
-        help="comma list (default: fixed baselines + learned methods with a shipped policy)",
+        help="comma list (default: fixed baselines, random, learned methods with a shipped policy)",
     )
     p.add_argument("--worlds", help="comma list of names or files (default: TS1..TS4,US1,H1..H3)")
     p.add_argument(

@@ -107,7 +107,13 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 def _methods(method: str | None, policy: str | None) -> list[str]:
     """The methods to export: --method checked, or every network method."""
-    from d3dwa_bullet.methods import FIXED, ONNX_METHODS, check_method  # start-up cost: numba
+    from d3dwa_bullet.methods import (  # start-up cost: numba
+        FIXED,
+        NO_POLICY,
+        ONNX_METHODS,
+        check_method,
+        method_family,
+    )
 
     if method is None:
         if policy is not None:
@@ -116,6 +122,10 @@ def _methods(method: str | None, policy: str | None) -> list[str]:
     check_method(method)
     if method in FIXED:
         raise ConfigError(f"--method {method} is a fixed DWA: it has no policy to export")
+    if method in NO_POLICY:
+        raise ConfigError(
+            f"--method {method} is a {method_family(method)} method: it has no policy to export"
+        )
     if method not in ONNX_METHODS:
         raise ConfigError(
             f"--method {method}: its policy is a Q-table over a discretised state, not a "

@@ -24,7 +24,14 @@ from collections.abc import Callable, Sequence
 from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, WorldFormatError
 from d3dwa_bullet.limits import MAX_CONTROL_HZ, MAX_PHYSICS_HZ, MAX_TIME_LIMIT_S, check_processes
-from d3dwa_bullet.methods import BEYOND_PAPER, FIXED, LEARNED, default_policy_path
+from d3dwa_bullet.methods import (
+    BEYOND_PAPER,
+    FIXED,
+    LEARNED,
+    REFERENCE,
+    default_policy_path,
+    refuse_policy,
+)
 from d3dwa_bullet.params import RECOVERY_KINDS, PlannerParams, SimParams, recovery_params
 from d3dwa_bullet.world.model import World, goal_in_obstacle, start_in_collision
 from d3dwa_bullet.world.registry import load_world, world_file_kind
@@ -88,11 +95,14 @@ def list_arg(text: str | None, option: str, default: Callable[[], Sequence[str]]
 
 def policy_arg(policy: str | None, methods: Sequence[str]) -> str | None:
     """--policy, which belongs to one learned method: refused beside several --methods
-    (it would silently apply to none of them)."""
+    (it would silently apply to none of them), and for a fixed or reference method (it
+    would be ignored)."""
     if policy is not None and len(methods) != 1:
         raise ConfigError(
             f"--policy {policy} needs exactly one method, got --methods {','.join(methods)}"
         )
+    if policy is not None:
+        refuse_policy(methods[0], policy)
     return policy
 
 
@@ -265,8 +275,11 @@ def workers_arg(args: argparse.Namespace) -> int:
 
 
 def default_methods() -> list[str]:
-    """The paper's track: fixed baselines plus every learned method of the paper whose shipped
-    policy exists (methods beyond the paper run when named with --methods)."""
-    return list(FIXED) + [
-        m for m in LEARNED if m not in BEYOND_PAPER and default_policy_path(m).exists()
-    ]
+    """The paper's track: fixed baselines, the reference methods (``random``: the floor a
+    learned method must clear), then every learned method of the paper whose shipped policy
+    exists (methods beyond the paper run when named with --methods)."""
+    return (
+        list(FIXED)
+        + list(REFERENCE)
+        + [m for m in LEARNED if m not in BEYOND_PAPER and default_policy_path(m).exists()]
+    )

@@ -75,7 +75,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             f"min clearance {summary['min_clearance_m']:.3f} m ({summary['steps']} steps)",
             flush=True,
         )
-        if controller.source != "fixed":
+        if controller.source not in ("fixed", "reference"):
             print(f"policy: {controller.source}", flush=True)
     if args.plot:
         # start-up cost: matplotlib (~0.3 s) only with --plot

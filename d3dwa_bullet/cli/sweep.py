@@ -37,7 +37,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "sweep", help="success and time vs noise level on R1-R3 and unseen generated layouts"
     )
-    p.add_argument("--methods", help="comma list (default: fixed baselines + shipped policies)")
+    p.add_argument(
+        "--methods", help="comma list (default: fixed baselines, random, shipped policies)"
+    )
     p.add_argument(
         "--out",
         required=True,

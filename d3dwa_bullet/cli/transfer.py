@@ -2,7 +2,7 @@
 
 ``d3dwa_bullet.cli`` owns the parser: it calls ``add_*_arguments(subparser)`` and dispatches
 to ``run_*(args, ...)``, which return the exit code. What only the simulator side knows
-comes in as callables: ``make_step_fn(method, policy_path, estimator=...) -> step_fn`` for
+comes in as callables: ``make_step_fn(method, policy_path, seed=..., estimator=...) -> step_fn`` for
 the replay and ``run_episode(world, method, policy_path, noise, seed, recorder)`` (plus
 ``time_limit=`` when ``--time-limit`` is given) for recording. Errors are raised as
 ``D3DWAError`` subclasses (``BagFormatError``, ...) for ``main`` to report; whatever was
@@ -90,6 +90,11 @@ def add_replay_arguments(parser: argparse.ArgumentParser) -> None:
         help="pose/velocity source: the bag's fused odometry (default; bit-exact against the "
         "simulator) or 'ekf', re-fusing wheel odometry and IMU (robots without fused odometry)",
     )
+    parser.add_argument(
+        "--seed", type=int, default=0,
+        help="episode seed the `random` method draws from (default 0; the --seed a bag was "
+        "recorded with replays its actions)",
+    )  # fmt: skip
     parser.add_argument("--out", type=Path, required=True, help="output directory")
     parser.add_argument("--no-plots", action="store_true", help="skip the figures")
     _add_bag_options(parser)
@@ -131,10 +136,9 @@ def run_replay(
         step_fn: StepFn = observe_only
     elif make_step_fn is None:
         raise BagFormatError(f"replay method {args.method!r} is not available in this build")
-    elif estimator == "odometry":
-        step_fn = make_step_fn(args.method, args.policy)
     else:
-        step_fn = make_step_fn(args.method, args.policy, estimator=estimator)
+        options = {"estimator": estimator} if estimator != "odometry" else {}
+        step_fn = make_step_fn(args.method, args.policy, seed=getattr(args, "seed", 0), **options)
     goal = parse_floats(args.goal, 2, "--goal") if args.goal else None
     mount = Pose2D(*parse_floats(args.mount, 3, "--mount")) if args.mount else None
     check_out_dir(args.out)

@@ -17,7 +17,7 @@ from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Circle, Patch, Polygon  # noqa: E402
 
 from d3dwa_bullet.io import atomic_savefig  # noqa: E402
-from d3dwa_bullet.methods import LABELS, METHODS  # noqa: E402
+from d3dwa_bullet.methods import LABELS, METHODS, REFERENCE  # noqa: E402
 from d3dwa_bullet.params import RECOVERY_BEHAVIOURS  # noqa: E402
 from d3dwa_bullet.world.model import Cylinder, World, obstacle_outline  # noqa: E402
 
@@ -157,11 +157,21 @@ def trajectory_figure(
     return _save(fig, path)
 
 
+REFERENCE_COLOUR = (0.45, 0.45, 0.45, 1.0)
+"""The colour of a reference method (``random``): grey, a floor rather than a contender."""
+_COLOURED = tuple(m for m in METHODS if m not in REFERENCE)
+
+
 def method_colours(methods: Sequence[str]) -> dict[str, tuple]:
-    """A stable colour per method name (the order of d3dwa_bullet.methods.METHODS)."""
+    """A stable colour per method name: a reference method grey, every other one its slot
+    in the order of d3dwa_bullet.methods.METHODS (reference methods left out, so adding one
+    changes no other method's colour)."""
     cmap = plt.get_cmap("tab10")
     return {
-        m: cmap(METHODS.index(m) % 10 if m in METHODS else i % 10) for i, m in enumerate(methods)
+        m: REFERENCE_COLOUR
+        if m in REFERENCE
+        else cmap(_COLOURED.index(m) % 10 if m in _COLOURED else i % 10)
+        for i, m in enumerate(methods)
     }
 
 

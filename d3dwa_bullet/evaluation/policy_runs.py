@@ -4,8 +4,8 @@ A learned method's result is its distribution over training seeds
 (docs/design.md#learning-protocol), so an evaluation drives every ``seed-<k>/`` of the
 method's policy folder (``policies/<method>/``, or ``--policy DIR``) unless
 ``--policy-seeds`` names some of them. A folder without seed folders is one policy (a
-checkpoint, or one ``seed-<k>`` folder given as ``--policy``). A fixed method is one run
-with no policy.
+checkpoint, or one ``seed-<k>`` folder given as ``--policy``). A fixed or reference method
+(``random``) is one run with no policy.
 
 The seeds of one method must be one experiment: trained under the same config (all but
 the seed) and the same action set; a folder mixing configs is refused, naming both seeds
@@ -24,7 +24,7 @@ from typing import Any
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.evaluation.results import differences
 from d3dwa_bullet.loading import load_json
-from d3dwa_bullet.methods import FIXED, default_policy_path
+from d3dwa_bullet.methods import NO_POLICY, default_policy_path
 from d3dwa_bullet.seed_dirs import parse_seeds, seed_dirs, seed_of
 
 ALL = "all"
@@ -34,13 +34,13 @@ POLICY_DATA_FILES = ("weights.pt", "table.npy")
 
 @dataclass(frozen=True)
 class PolicyRun:
-    """One trained (or fixed) controller to evaluate."""
+    """One trained (or fixed, or reference) controller to evaluate."""
 
     method: str
     policy_seed: int | None = None
-    """The training seed (``seed-<k>``), None for a fixed method or a single policy."""
+    """The training seed (``seed-<k>``), None for a method without a policy or a single one."""
     policy: str | None = None
-    """The policy folder to load; None for a fixed method or the method's shipped policy."""
+    """The policy folder to load; None for a method without a policy or its shipped one."""
 
 
 def _experiment(folder: Path) -> dict[str, Any]:
@@ -107,7 +107,7 @@ def method_runs(
     runs: list[PolicyRun] = []
     chosen = False
     for method in methods:
-        if method in FIXED:
+        if method in NO_POLICY:
             runs.append(PolicyRun(method))
             continue
         folder = Path(policy) if policy is not None else default_policy_path(method)
@@ -132,7 +132,7 @@ def policy_digests(runs: Sequence[PolicyRun]) -> dict[str, str]:
     (or Q-table) as its meta.json records it ('' if the folder has none)."""
     digests = {}
     for run in runs:
-        if run.method in FIXED:
+        if run.method in NO_POLICY:
             continue
         folder = Path(run.policy) if run.policy is not None else default_policy_path(run.method)
         name = run.method if run.policy_seed is None else f"{run.method}/seed-{run.policy_seed}"

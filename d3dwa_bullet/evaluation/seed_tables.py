@@ -32,7 +32,7 @@ from d3dwa_bullet.evaluation.seed_stats import (
     mean_interval,
     probability_of_improvement,
 )
-from d3dwa_bullet.methods import FIXED, LABELS
+from d3dwa_bullet.methods import LABELS, NO_POLICY, method_family
 
 Row = Mapping[str, Any]
 Run = tuple[str, int]
@@ -89,7 +89,8 @@ def _cells(rows: Sequence[Row]) -> dict[tuple[str, str], list[Row]]:
 
 
 def _n_runs(rows: Sequence[Row]) -> tuple[int, int]:
-    """(training seeds, episodes) of a method's rows (0 training seeds: a fixed method)."""
+    """(training seeds, episodes) of a method's rows (0 training seeds: a method without a
+    policy, or a single policy)."""
     return len({r["policy_seed"] for r in rows if r["policy_seed"] is not None}), len(rows)
 
 
@@ -111,7 +112,7 @@ def _runs_label(method: str, rows: Sequence[Row]) -> str:
     episodes = f"{n} episode{'s' * (n != 1)}"
     if seeds:
         return f"{seeds} training seed{'s' * (seeds != 1)}, {episodes}"
-    kind = "fixed" if method in FIXED else "one policy, no training seeds"
+    kind = method_family(method) if method in NO_POLICY else "one policy, no training seeds"
     return f"{kind}, {episodes}"
 
 

@@ -236,7 +236,7 @@ def sweep_markdown(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -
         parts.append(
             "\n### Named profiles over training seeds\n\nSuccess rate [%] averaged over the "
             "layouts of a group, 95 % stratified bootstrap over runs (a learned method's "
-            "training seeds, a fixed method's evaluation seeds).\n\n"
+            "training seeds, the evaluation seeds of a fixed or reference method).\n\n"
         )
         parts.append(
             condition_table(rows, settings.methods, settings.profiles, profile_of,

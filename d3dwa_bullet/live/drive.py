@@ -169,6 +169,7 @@ def warm_up(pipeline: ReplayPipeline) -> None:
     config = pipeline.config
     obs_dim = len(pipeline.observation_layout)
     pipeline.controller(np.zeros(obs_dim))
+    pipeline.controller.reset(pipeline.seed)  # the random method's warm-up draw is not a step
     action = PlannerAction(1.0, 1.0, 1.0, 2.0)
     plan_from((0.0, 0.0, 0.0), (0.0, 0.0), (1.0, 0.0), np.zeros((0, 2)), action, config)
 

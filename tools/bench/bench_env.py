@@ -44,6 +44,7 @@ def bench(worlds: list[str], steps: int, method: str, recovery: str = "none") ->
     total_steps, total_time, total_cpu = 0, 0.0, 0.0
     for name in worlds:
         with Episode(load_world(name), config=config) as ep:
+            controller.reset(ep.seed)
             t0, c0 = time.perf_counter(), time.process_time()
             n = 0
             while n < steps:

@@ -25,7 +25,7 @@ import numpy as np
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation.backends import run_local
 from d3dwa_bullet.evaluation.jobs import Job, run_job
-from d3dwa_bullet.methods import check_method, make_controller
+from d3dwa_bullet.methods import NO_POLICY, check_method, make_controller
 from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.registry import load_world
 from d3dwa_bullet.world.route_start import route_polyline, route_pose
@@ -50,16 +50,18 @@ def probe(
     world: World, methods: Sequence[str], fractions: Sequence[float], policy: str | None = None,
     seed: int = 0, workers: int = 1,
 ) -> list[dict[str, Any]]:  # fmt: skip
-    """One row per fraction: the start pose and each method's outcome from there."""
+    """One row per fraction: the start pose and each method's outcome from there (policy:
+    the learned methods'; a fixed or reference method needs none)."""
     route = route_polyline(world)
     starts = {f: start_world(world, route, f) for f in fractions}
-    jobs = [Job(starts[f], m, seed, policy=policy) for f in fractions for m in methods]
+    policies = {m: None if m in NO_POLICY else policy for m in methods}
+    jobs = [Job(starts[f], m, seed, policy=policies[m]) for f in fractions for m in methods]
     done = dict(run_local(_run, jobs, None, workers))
     rows = []
     for f in fractions:
         row: dict[str, Any] = {"fraction": f, "start": [round(v, 3) for v in starts[f].start]}
         for m in methods:
-            row[m] = done[Job(starts[f], m, seed, policy=policy)]
+            row[m] = done[Job(starts[f], m, seed, policy=policies[m])]
         rows.append(row)
     return rows
 
@@ -108,7 +110,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         for f in fractions:
             route_pose(route, f)  # ConfigError for a fraction outside [0, 1)
         for m in methods:
-            make_controller(m, args.policy)  # a bad policy path fails here, not in a worker
+            # a bad policy path fails here, not in a worker
+            make_controller(m, None if m in NO_POLICY else args.policy)
     except D3DWAError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

@@ -1,0 +1,147 @@
+"""The method registry's `random` reference method: uniform over the 100 actions, drawn from
+its own stream of the episode seed, a method without a policy (docs/design.md#methods)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from d3dwa_bullet.episode import run_episode
+from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.evaluation.jobs import make_noise
+from d3dwa_bullet.evaluation.policy_runs import PolicyRun, method_runs, policy_digests
+from d3dwa_bullet.methods import (
+    FIXED,
+    LABELS,
+    METHODS,
+    NO_POLICY,
+    Controller,
+    make_controller,
+    method_family,
+)
+from d3dwa_bullet.planning.actions import ACTIONS_FULL
+
+OBS = np.zeros(12)
+
+
+def draws(seed: int, n: int) -> list[int]:
+    """The first n action indices of a random controller reset with seed."""
+    controller = make_controller("random")
+    controller.reset(seed)
+    return [controller(OBS)[0] for _ in range(n)]
+
+
+def test_random_is_a_reference_method_without_a_policy():
+    assert "random" in METHODS and "random" in NO_POLICY and "random" not in FIXED
+    assert method_family("random") == "reference" and method_family("dwa1") == "fixed"
+    assert method_family("d3dwa") == "learned"
+    assert LABELS["random"] == "Random (uniform over 100 actions)"
+    controller = make_controller("random")
+    assert controller.actions == ACTIONS_FULL and controller.source == "reference"
+    assert method_runs(["dwa1", "random"]) == [PolicyRun("dwa1"), PolicyRun("random")]
+    assert policy_digests(method_runs(["random"])) == {}
+
+
+@pytest.mark.parametrize("method", ["random", "dwa1"])
+def test_a_policy_for_a_method_that_needs_none_is_refused(method, tmp_path):
+    with pytest.raises(ConfigError) as err:
+        make_controller(method, tmp_path / "p")
+    line = str(err.value)
+    assert "\n" not in line and f"--policy {tmp_path / 'p'}" in line and "needs no policy" in line
+    with pytest.raises(ConfigError) as err:
+        make_controller(method, onnx=tmp_path / "p.onnx")
+    assert f"{tmp_path / 'p.onnx'}: method {method!r} does not run a network" in str(err.value)
+
+
+def test_same_seed_same_draws_and_the_action_matches_its_index():
+    assert draws(7, 200) == draws(7, 200)
+    controller = make_controller("random")
+    controller.reset(7)
+    for _ in range(20):
+        index, action = controller(OBS)
+        assert action == ACTIONS_FULL.decode(index)
+    controller.reset(7)  # a reset starts the episode's stream again
+    assert [controller(OBS)[0] for _ in range(200)] == draws(7, 200)
+
+
+def test_different_seeds_give_different_draws():
+    sequences = {tuple(draws(seed, 50)) for seed in range(20)}
+    assert len(sequences) == 20
+
+
+def test_draws_cover_the_action_set_uniformly():
+    counts = np.bincount(draws(0, 5000), minlength=ACTIONS_FULL.size)
+    assert counts.size == 100 and counts.min() > 0
+    # Pearson's chi-square against 50 a cell: 99 degrees of freedom, mean 99, sd 14; a loose
+    # bound (about 6 sd) that a biased draw (e.g. one horizon block twice as likely) exceeds
+    chi2 = float(((counts - 50.0) ** 2 / 50.0).sum())
+    assert chi2 < 185.0, chi2
+    per_horizon = counts.reshape(4, 25).sum(axis=1)  # horizon-major: 1250 each expected
+    assert np.all(np.abs(per_horizon - 1250) < 150), per_horizon
+
+
+def test_the_draws_ignore_the_observation():
+    controller = make_controller("random")
+    controller.reset(3)
+    observed = [controller(np.full(12, float(k)))[0] for k in range(100)]
+    assert observed == draws(3, 100)
+
+
+def test_without_a_reset_it_refuses_to_draw():
+    with pytest.raises(RuntimeError, match="reset"):
+        make_controller("random")(OBS)
+
+
+def test_a_negative_episode_seed_is_refused_naming_it():
+    with pytest.raises(ConfigError, match=r"--seed -1: method 'random'"):
+        make_controller("random").reset(-1)
+
+
+def test_other_controllers_ignore_reset():
+    controller = make_controller("dwa2")
+    controller.reset(5)
+    assert controller(OBS) == (-1, FIXED["dwa2"])
+
+
+def test_same_episode_seed_gives_the_same_episode_bit_for_bit(post_world):
+    world = post_world.with_task(time_limit=3.0)
+    a = run_episode(world, make_controller("random"), seed=3)
+    b = run_episode(world, make_controller("random"), seed=3)
+    assert a.summary() == b.summary() and a.steps == 30
+    for k in a.log:
+        assert np.array_equal(a.log[k], b.log[k]), k
+    assert a.log["action"].astype(int).tolist() == draws(3, 30)
+    table = ACTIONS_FULL.table()[a.log["action"].astype(int)]
+    np.testing.assert_array_equal(
+        np.column_stack([a.log[k] for k in ("wp", "wc", "ws", "tau")]), table
+    )
+    assert len(set(a.log["tau"].tolist())) > 1  # it picks horizons, as the tau figures show
+    c = run_episode(world, make_controller("random"), seed=4)
+    assert c.log["action"].tolist() != a.log["action"].tolist()
+
+
+def test_one_controller_reused_over_episodes_restarts_its_stream(post_world):
+    world = post_world.with_task(time_limit=1.0)
+    controller = make_controller("random")
+    first = run_episode(world, controller, seed=2)
+    run_episode(world, controller, seed=9)
+    again = run_episode(world, controller, seed=2)
+    assert first.log["action"].tolist() == again.log["action"].tolist()
+
+
+def test_its_draws_are_a_stream_of_their_own(post_world):
+    """Noise draws from the same episode seed, and changes what the robot sees: the actions
+    are the same with and without it."""
+    world = post_world.with_task(time_limit=1.0)
+    quiet = run_episode(world, make_controller("random"), seed=5)
+    noisy = run_episode(
+        world, make_controller("random"), seed=5, noise=make_noise("real", 5), noise_name="real"
+    )
+    assert not np.array_equal(noisy.observations, quiet.observations)
+    assert noisy.log["action"].tolist() == quiet.log["action"].tolist()
+
+
+def test_a_controller_built_by_hand_is_not_uniform():
+    controller = Controller("mine", actions=ACTIONS_FULL, policy=lambda obs: 42)
+    controller.reset(0)
+    assert controller(OBS) == (42, ACTIONS_FULL.decode(42))
