@@ -62,3 +62,15 @@ class BusyError(D3DWAError, RuntimeError):
 
 class RobotLinkError(D3DWAError, RuntimeError):
     """The robot's API cannot be reached, answers wrongly or too late, or serves stale data."""
+
+
+class WriteError(D3DWAError, OSError):
+    """A file or directory cannot be written: the disk is full, the file too large, the
+    directory read-only, or a file stands where a directory should. Still an OSError (errno,
+    strerror and filename as the system gave them); its message is one line naming the path."""
+
+    def __init__(self, path: object, err: OSError) -> None:
+        super().__init__(err.errno, err.strerror or str(err), str(path))
+
+    def __str__(self) -> str:
+        return f"{self.filename}: cannot write: {self.strerror}"

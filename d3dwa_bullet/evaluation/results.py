@@ -42,7 +42,7 @@ import numpy as np
 
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
-from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text, read_text
+from d3dwa_bullet.io import AppendFile, atomic_write_bytes, atomic_write_text, read_text
 from d3dwa_bullet.loading import load_json, parse_json
 
 if TYPE_CHECKING:  # for annotations only: this module reads and writes files, runs nothing
@@ -284,19 +284,16 @@ def drop_partial_row(path: Path) -> bool:
 def appending_rows(out: Path, fields: Sequence[str]) -> Iterator[Any]:
     """A function ``append(row)`` that adds one row to out/results.csv and flushes it (the
     header first if the file is new or empty). Columns outside fields are ignored."""
-    path = out / "results.csv"
-    new_file = not path.exists() or path.stat().st_size == 0
-    with path.open("a", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(fields), extrasaction="ignore")
-        if new_file:
-            writer.writeheader()
-            fh.flush()
+    with AppendFile(out / "results.csv") as fh:  # whole rows, never through a link
 
-        def append(row: Mapping[str, Any]) -> None:
-            writer.writerow(row)
-            fh.flush()
+        def line(write: Any) -> None:
+            buffer = io.StringIO(newline="")
+            write(csv.DictWriter(buffer, fieldnames=list(fields), extrasaction="ignore"))
+            fh.write(buffer.getvalue().encode("utf-8"))
 
-        yield append
+        if fh.size == 0:
+            line(lambda writer: writer.writeheader())
+        yield lambda row: line(lambda writer: writer.writerow(row))
 
 
 def order_results(out: Path, keys: Sequence[Key]) -> bool:
