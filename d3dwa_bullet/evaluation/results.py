@@ -166,7 +166,14 @@ def check_results_dir(
     """Refuse a results directory written by another format version, or (with fields) one
     whose results.csv has other columns (e.g. a sweep's directory given to eval), or (with
     recovery, the command's --recovery) one whose episodes ran with another recovery layer:
-    the paper track and a recovery track never share a directory."""
+    the paper track and a recovery track never share a directory. A results.csv or
+    meta.json that is a symbolic link is refused: a command never writes through one."""
+    for name in ("results.csv", "meta.json"):
+        if (out / name).is_symlink():
+            raise ResultsError(
+                f"{out / name}: is a symbolic link; a results directory holds only files d3dwa "
+                "wrote there (remove the link, or use another --out directory)"
+            )
     meta = out / "meta.json"
     if meta.exists():
         fmt = read_meta(out).get("format")
@@ -269,7 +276,7 @@ def drop_partial_row(path: Path) -> bool:
     True if something was cut. Its episode is then simply run again."""
     if not path.exists() or path.stat().st_size == 0:
         return False
-    with path.open("rb+") as fh:
+    with os.fdopen(os.open(path, os.O_RDWR | os.O_NOFOLLOW), "rb+") as fh:  # not through a link
         fh.seek(-1, os.SEEK_END)
         if fh.read(1) == b"\n":
             return False
