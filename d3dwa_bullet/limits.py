@@ -56,6 +56,11 @@ MAX_NESTING_DEPTH = Limit(32, "no file of this project nests deeper than 4 level
 reads (a training config's ``agent:`` block, a world's obstacle list) nests 4 levels; a
 document nested thousands of levels deep would otherwise end in a RecursionError."""
 
+MAX_XML_DEPTH = Limit(64, "an SDF world nests about 8 elements deep, a nested model 3 more")
+"""Nesting of elements in an XML document (a Gazebo SDF world): sdf > world > model > link >
+collision > geometry > box > size is 8 levels, and each nested ``<model>`` adds a few; a world
+of thousands of nested models would otherwise end in a RecursionError."""
+
 MAX_ALIAS_NODES = Limit(10_000, "each YAML alias repeats its anchor's whole node")
 """Nodes that YAML aliases (``*name``) may add to a document, each alias counted as the full
 size of the node it repeats. ``yaml.safe_dump`` writes an alias for a list used twice, so a
