@@ -4,6 +4,7 @@ path and the reason, exit 2, and what they had written before is still whole."""
 
 from __future__ import annotations
 
+import errno
 import hashlib
 from pathlib import Path
 
@@ -95,3 +96,22 @@ def test_export_keeps_the_file_it_wrote_before(tmp_path, capsys):
     line = refused_past_limit(argv, limit=10_000)  # the file is ~100 kB
     assert line == f"d3dwa: error: {tmp_path / 'd3dwa' / 'seed-0.onnx'}: {TOO_LARGE}"
     assert digests(tmp_path) == before
+
+
+@pytest.mark.parametrize(
+    ("error", "line"),
+    [
+        (OSError(errno.ENOSPC, "No space left on device", "/data/run/tb/events"),
+         "d3dwa: error: /data/run/tb/events: No space left on device"),
+        (OSError(errno.EFBIG, "File too large"), "d3dwa: error: File too large"),
+        (FileExistsError(errno.EEXIST, "File exists", "/data/a", None, "/data/b"),
+         "d3dwa: error: /data/a -> /data/b: File exists"),
+    ],
+)  # fmt: skip
+def test_an_os_error_no_writer_named_is_still_one_line(capsys, monkeypatch, error, line):
+    def fail(args):
+        raise error
+
+    monkeypatch.setattr("d3dwa_bullet.cli.worlds.cmd_worlds", fail)
+    code, _, err = run(capsys, "worlds")
+    assert code == 2 and err.splitlines() == [line]
