@@ -1,5 +1,8 @@
 """Typed errors. Every message names the file, field and value that was wrong."""
 
+import errno
+import os
+
 
 class D3DWAError(Exception):
     """Base of every error this package raises on purpose."""
@@ -70,7 +73,10 @@ class WriteError(D3DWAError, OSError):
     strerror and filename as the system gave them); its message is one line naming the path."""
 
     def __init__(self, path: object, err: OSError) -> None:
-        super().__init__(err.errno, err.strerror or str(err), str(path))
+        reason = err.strerror or str(err)
+        if err.errno == errno.ELOOP and os.path.islink(str(path)):  # refused by O_NOFOLLOW
+            reason = "it is a symbolic link; only a regular file is written"
+        super().__init__(err.errno, reason, str(path))
 
     def __str__(self) -> str:
         return f"{self.filename}: cannot write: {self.strerror}"

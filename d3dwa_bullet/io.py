@@ -144,10 +144,6 @@ class AppendFile:
         try:
             self._fd = os.open(self.path, _APPEND_FLAGS, 0o666)
         except OSError as err:
-            if err.errno == errno.ELOOP and self.path.is_symlink():
-                err = OSError(
-                    err.errno, "it is a symbolic link; only a regular file is appended to"
-                )
             raise WriteError(self.path, err) from err
         if not stat.S_ISREG(os.fstat(self._fd).st_mode):
             os.close(self._fd)
@@ -169,6 +165,13 @@ class AppendFile:
         except OSError as err:
             with contextlib.suppress(OSError):
                 os.ftruncate(self._fd, start)
+            raise WriteError(self.path, err) from err
+
+    def cut(self, size: int) -> None:
+        """Cut the file back to its first size bytes (a resumed run's logs to its checkpoint)."""
+        try:
+            os.ftruncate(self._fd, size)
+        except OSError as err:
             raise WriteError(self.path, err) from err
 
     def close(self) -> None:
