@@ -41,9 +41,10 @@ class Limit:
             )
 
 
-MAX_DOCUMENT_BYTES = Limit(4 * 2**20, "a YAML or JSON file of this project is a few kB")
-"""Size of one YAML or JSON document read whole (a world, profile, training config,
-map_server YAML, meta.json, summary.json, config.json, training_state.json). The largest the
+MAX_DOCUMENT_BYTES = Limit(4 * 2**20, "a YAML, JSON or XML file of this project is a few kB")
+"""Size of one YAML, JSON or XML document read whole (a world, Gazebo SDF world, profile,
+training config, map_server YAML, a ROS 2 bag's metadata.yaml, meta.json, summary.json,
+config.json, training_state.json). The largest the
 project writes is a few kB; 16 MiB leaves room for generated worlds with thousands of
 obstacles and refuses a huge or endless file before a byte of it is read."""
 
