@@ -18,6 +18,7 @@ again): the inner call is a no-op.
 
 from __future__ import annotations
 
+import errno
 import fcntl
 import os
 import socket
@@ -63,13 +64,14 @@ def _acquire(directory: Path, what: str) -> int:
     path = directory / LOCK_FILE
     while True:
         try:
-            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o666)  # not via a link
         except FileNotFoundError:  # the directory was removed (empty) by its creator: again
             _make(directory, what)
             continue
         except OSError as err:
+            why = "it is a symbolic link" if err.errno == errno.ELOOP else err.strerror
             raise ConfigError(
-                f"{what} {directory}: cannot create its lock file {path.name}: {err.strerror}"
+                f"{what} {directory}: cannot create its lock file {path.name}: {why}"
             ) from err
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)

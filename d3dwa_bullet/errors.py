@@ -1,5 +1,8 @@
 """Typed errors. Every message names the file, field and value that was wrong."""
 
+import errno
+import os
+
 
 class D3DWAError(Exception):
     """Base of every error this package raises on purpose."""
@@ -62,3 +65,18 @@ class BusyError(D3DWAError, RuntimeError):
 
 class RobotLinkError(D3DWAError, RuntimeError):
     """The robot's API cannot be reached, answers wrongly or too late, or serves stale data."""
+
+
+class WriteError(D3DWAError, OSError):
+    """A file or directory cannot be written: the disk is full, the file too large, the
+    directory read-only, or a file stands where a directory should. Still an OSError (errno,
+    strerror and filename as the system gave them); its message is one line naming the path."""
+
+    def __init__(self, path: object, err: OSError) -> None:
+        reason = err.strerror or str(err)
+        if err.errno == errno.ELOOP and os.path.islink(str(path)):  # refused by O_NOFOLLOW
+            reason = "it is a symbolic link; only a regular file is written"
+        super().__init__(err.errno, reason, str(path))
+
+    def __str__(self) -> str:
+        return f"{self.filename}: cannot write: {self.strerror}"

@@ -5,7 +5,14 @@ Each helper writes to a temporary file beside the target (same directory, so the
 never crosses a file system), fsyncs it, then ``os.replace``s it over the target. If the
 write fails, the temporary file is removed and the target is left as it was. The temporary
 name starts with a dot and ends in ``.tmp``; it is created with mode 0666 minus the umask,
-like an ordinary ``open(path, "w")``. The parent directory must exist.
+like an ordinary ``open(path, "w")``. The parent directory must exist. A file system that
+refuses the write (a full disk, the file-size limit, a read-only directory, a file where a
+directory should be) raises :class:`~d3dwa_bullet.errors.WriteError`, one line naming the
+target and the reason, which the command line prints as its error.
+
+:class:`AppendFile` is the other way a file grows: whole records at its end (rows of
+results.csv, lines of a training log), each written whole or not at all, never through a
+symbolic link.
 
 :func:`read_text` reads a UTF-8 file the user named (a world, a profile, a map): a file of
 binary garbage or one that cannot be read is the caller's error class with one line that
@@ -19,6 +26,8 @@ safe to use in a file name: it stays in its directory and within the file system
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import hashlib
 import os
 import re
@@ -28,7 +37,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, BinaryIO, Protocol
 
-from d3dwa_bullet.errors import D3DWAError
+from d3dwa_bullet.errors import D3DWAError, WriteError
 from d3dwa_bullet.limits import MAX_STEM_BYTES, MAX_TEXT_BYTES, Limit
 
 
@@ -81,14 +90,18 @@ def _atomic_write(path: str | os.PathLike[str], write: Callable[[BinaryIO], obje
             break
         except FileExistsError:
             continue
+        except OSError as err:  # read-only, a file where the directory should be, ...
+            raise WriteError(target, err) from err
     try:
         with os.fdopen(fd, "wb") as fh:
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, target)
-    except BaseException:
+    except BaseException as err:
         tmp.unlink(missing_ok=True)
+        if isinstance(err, OSError) and not isinstance(err, WriteError):
+            raise WriteError(target, err) from err  # a full disk, past the file-size limit
         raise
     return target
 
@@ -110,6 +123,67 @@ def atomic_savefig(fig: SavesFigure, path: str | os.PathLike[str], **kwargs: Any
     if suffix and "format" not in kwargs:
         kwargs["format"] = suffix
     return _atomic_write(path, lambda fh: fig.savefig(fh, **kwargs))
+
+
+_APPEND_FLAGS = (
+    os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC
+)
+"""O_NOFOLLOW: a link planted in an output directory is never written through; O_NONBLOCK:
+opening a FIFO does not wait for a reader (it is then refused as no regular file)."""
+
+
+class AppendFile:
+    """A regular file that grows by whole records (rows of results.csv, lines of a log),
+    created if missing. A record goes in whole or not at all: when a write fails (a full
+    disk, the file-size limit) the file is cut back to where it ended, and WriteError names
+    it. A symbolic link or anything but a regular file is refused when opening (WriteError),
+    so a command never appends outside the directory it writes. A context manager."""
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        self.path = Path(path)
+        try:
+            self._fd = os.open(self.path, _APPEND_FLAGS, 0o666)
+        except OSError as err:
+            raise WriteError(self.path, err) from err
+        if not stat.S_ISREG(os.fstat(self._fd).st_mode):
+            os.close(self._fd)
+            raise WriteError(self.path, OSError(errno.EINVAL, "not a regular file"))
+        os.set_blocking(self._fd, True)
+
+    @property
+    def size(self) -> int:
+        """Bytes in the file now."""
+        return os.fstat(self._fd).st_size
+
+    def write(self, data: bytes) -> None:
+        """Append data, all of it or (on failure, then WriteError) none of it."""
+        start = os.lseek(self._fd, 0, os.SEEK_END)
+        view = memoryview(data)
+        try:
+            while view:
+                view = view[os.write(self._fd, view) :]
+        except OSError as err:
+            with contextlib.suppress(OSError):
+                os.ftruncate(self._fd, start)
+            raise WriteError(self.path, err) from err
+
+    def cut(self, size: int) -> None:
+        """Cut the file back to its first size bytes (a resumed run's logs to its checkpoint)."""
+        try:
+            os.ftruncate(self._fd, size)
+        except OSError as err:
+            raise WriteError(self.path, err) from err
+
+    def close(self) -> None:
+        if self._fd >= 0:
+            os.close(self._fd)
+            self._fd = -1
+
+    def __enter__(self) -> AppendFile:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 def read_text(

@@ -41,9 +41,10 @@ class Limit:
             )
 
 
-MAX_DOCUMENT_BYTES = Limit(4 * 2**20, "a YAML or JSON file of this project is a few kB")
-"""Size of one YAML or JSON document read whole (a world, profile, training config,
-map_server YAML, meta.json, summary.json, config.json, training_state.json). The largest the
+MAX_DOCUMENT_BYTES = Limit(4 * 2**20, "a YAML, JSON or XML file of this project is a few kB")
+"""Size of one YAML, JSON or XML document read whole (a world, Gazebo SDF world, profile,
+training config, map_server YAML, a ROS 2 bag's metadata.yaml, meta.json, summary.json,
+config.json, training_state.json). The largest the
 project writes is a few kB; 16 MiB leaves room for generated worlds with thousands of
 obstacles and refuses a huge or endless file before a byte of it is read."""
 
@@ -55,6 +56,11 @@ MAX_NESTING_DEPTH = Limit(32, "no file of this project nests deeper than 4 level
 """Nesting of mappings and lists in a YAML or JSON document. The deepest file the project
 reads (a training config's ``agent:`` block, a world's obstacle list) nests 4 levels; a
 document nested thousands of levels deep would otherwise end in a RecursionError."""
+
+MAX_XML_DEPTH = Limit(64, "an SDF world nests about 8 elements deep, a nested model 3 more")
+"""Nesting of elements in an XML document (a Gazebo SDF world): sdf > world > model > link >
+collision > geometry > box > size is 8 levels, and each nested ``<model>`` adds a few; a world
+of thousands of nested models would otherwise end in a RecursionError."""
 
 MAX_ALIAS_NODES = Limit(10_000, "each YAML alias repeats its anchor's whole node")
 """Nodes that YAML aliases (``*name``) may add to a document, each alias counted as the full

@@ -1,17 +1,19 @@
-"""The one place YAML and JSON are parsed: bounded in size, depth and expansion.
+"""The one place YAML, JSON and XML are parsed: bounded in size, depth and expansion.
 
 Every YAML or JSON file the project reads (worlds, generator styles, map_server YAML, noise
 profiles, training configs, checkpoint ``meta.json`` / ``config.json`` /
 ``training_state.json``, run summaries, results ``meta.json``, ``metrics.jsonl``) goes
 through :func:`load_yaml`, :func:`load_json` or :func:`load_json_lines`; text the program
-holds already goes through :func:`parse_yaml` / :func:`parse_json`. The caller's schema
-checks come after. What is refused, each with the caller's error class and one line that
+holds already goes through :func:`parse_yaml` / :func:`parse_json`. XML (Gazebo SDF worlds)
+goes through :func:`load_xml`. The caller's schema checks come after. What is refused, each with the caller's error class and one line that
 names the file:
 
 - a file that is not a regular file (``/dev/zero``, a FIFO) or is over its size limit
   (:data:`~d3dwa_bullet.limits.MAX_DOCUMENT_BYTES`), before it is read
   (:func:`d3dwa_bullet.io.read_text`);
-- mappings and lists nested deeper than :data:`~d3dwa_bullet.limits.MAX_NESTING_DEPTH`;
+- mappings and lists nested deeper than :data:`~d3dwa_bullet.limits.MAX_NESTING_DEPTH`,
+  XML elements deeper than :data:`~d3dwa_bullet.limits.MAX_XML_DEPTH` (counted as the parser
+  meets them, before a tree is built that a reader would recurse through);
 - YAML aliases (``*name``) that add more than
   :data:`~d3dwa_bullet.limits.MAX_ALIAS_NODES` nodes: an alias repeats its anchor's node,
   so nine lines of aliases make a billion items (the "billion laughs"). The few aliases
@@ -26,6 +28,7 @@ from __future__ import annotations
 
 import json
 import os
+import xml.etree.ElementTree as ET
 from typing import Any
 
 import yaml
@@ -37,6 +40,7 @@ from d3dwa_bullet.limits import (
     MAX_DOCUMENT_BYTES,
     MAX_NESTING_DEPTH,
     MAX_TEXT_BYTES,
+    MAX_XML_DEPTH,
 )
 
 
@@ -159,3 +163,42 @@ def load_json_lines(
         for n, line in enumerate(text.splitlines(), 1)
         if line.strip()
     ]
+
+
+def parse_xml(text: str, error: type[D3DWAError], source: str) -> ET.Element:
+    """The root element of an XML document; ``error`` naming ``source`` when it is not
+    well-formed or nests elements deeper than the limit."""
+    parser = ET.XMLPullParser(events=("start", "end"))
+    depth = 0
+    root: ET.Element | None = None
+    step = 1 << 16  # fed in pieces: the depth is checked as the tree grows, not after
+
+    def check_events() -> None:
+        nonlocal depth, root
+        for event, elem in parser.read_events():
+            depth += 1 if event == "start" else -1
+            root = elem if root is None else root
+            if depth > MAX_XML_DEPTH.value:
+                raise error(
+                    f"{source}: <{elem.tag}> is nested more than {MAX_XML_DEPTH.value} "
+                    f"elements deep ({MAX_XML_DEPTH.why})"
+                )
+
+    try:
+        for start in range(0, len(text), step):
+            parser.feed(text[start : start + step])
+            check_events()
+        parser.close()  # ParseError for a document cut short or without an element
+        check_events()
+    except ET.ParseError as err:
+        raise error(f"{source}: not well-formed XML: {err}") from err
+    assert root is not None
+    return root
+
+
+def load_xml(
+    path: str | os.PathLike[str], error: type[D3DWAError], what: str = "XML file"
+) -> ET.Element:
+    """The root element of an XML file; ``error`` naming the file for a file that cannot be
+    read, is not a regular file, is too large, is not XML or nests beyond the limit."""
+    return parse_xml(read_text(path, error, what, MAX_DOCUMENT_BYTES), error, str(path))

@@ -13,14 +13,25 @@ import yaml
 
 from d3dwa_bullet.errors import ConfigError, ProfileError, WorldFormatError
 from d3dwa_bullet.io import read_text
-from d3dwa_bullet.limits import MAX_DOCUMENT_BYTES, MAX_NESTING_DEPTH
-from d3dwa_bullet.loading import load_json, load_json_lines, load_yaml, parse_json, parse_yaml
+from d3dwa_bullet.limits import MAX_DOCUMENT_BYTES, MAX_NESTING_DEPTH, MAX_XML_DEPTH
+from d3dwa_bullet.loading import (
+    load_json,
+    load_json_lines,
+    load_xml,
+    load_yaml,
+    parse_json,
+    parse_xml,
+    parse_yaml,
+)
+from tests.support.hang_guard import within
 
 ROOT = Path(__file__).resolve().parents[1]
 SCANNED = ("d3dwa_bullet", "randomization", "transfer", "tools", "scripts")
 PARSERS = {("yaml", "safe_load"), ("yaml", "load"), ("yaml", "full_load"),
            ("yaml", "unsafe_load"), ("yaml", "safe_load_all"), ("yaml", "load_all"),
-           ("json", "loads"), ("json", "load")}  # fmt: skip
+           ("json", "loads"), ("json", "load"), ("ET", "parse"), ("ET", "fromstring"),
+           ("ET", "iterparse"), ("ET", "XML"), ("ET", "XMLParser"),
+           ("ET", "XMLPullParser")}  # fmt: skip
 LOADER = "d3dwa_bullet/loading.py"
 
 
@@ -54,7 +65,7 @@ def test_only_the_loader_parses_yaml_or_json():
             rel = path.relative_to(ROOT).as_posix()
             if rel != LOADER and (calls := parser_calls(path)):
                 offenders[rel] = calls
-    assert offenders == {}, "parse YAML/JSON with d3dwa_bullet.loading instead"
+    assert offenders == {}, "parse YAML/JSON/XML with d3dwa_bullet.loading instead"
     assert parser_calls(ROOT / LOADER), "the scan must see the loader's own json.loads"
 
 
@@ -161,3 +172,38 @@ def test_json_lines_name_the_line(tmp_path):
         load_json_lines(path, ConfigError)
     path.write_text('{"step": 1}\n\n{"step": 2}\n')
     assert load_json_lines(path, ConfigError) == [{"step": 1}, {"step": 2}]
+
+
+def nested_xml(depth: int, tag: str = "a") -> str:
+    return f"<{tag}>" * depth + f"</{tag}>" * depth
+
+
+def test_xml_nesting_up_to_the_limit_parses_and_past_it_is_refused():
+    limit = int(MAX_XML_DEPTH.value)
+    root = parse_xml(nested_xml(limit), WorldFormatError, "ok.world")
+    assert root.tag == "a" and len(list(root.iter())) == limit
+    with pytest.raises(WorldFormatError, match=rf"^deep.world: <a> is nested more than {limit} "):
+        parse_xml(nested_xml(limit + 1), WorldFormatError, "deep.world")
+
+
+def test_deep_xml_is_refused_before_the_whole_document_is_parsed():
+    start = time.perf_counter()
+    with pytest.raises(WorldFormatError, match="nested more than"):
+        parse_xml(nested_xml(1_000_000), WorldFormatError, "huge.world")
+    assert time.perf_counter() - start < 2.0  # a guard, not a speed figure
+
+
+@pytest.mark.parametrize("text", ["", "<a><b></a>", "<a>", "not xml"])
+def test_broken_xml_is_the_callers_error(text):
+    with pytest.raises(WorldFormatError, match="^x.world: not well-formed XML: "):
+        parse_xml(text, WorldFormatError, "x.world")
+
+
+@pytest.mark.parametrize("special", ["/dev/zero", "fifo"])
+def test_an_xml_file_that_is_not_regular_is_refused(tmp_path, special):
+    path = Path(special)
+    if special == "fifo":
+        path = tmp_path / "pipe.world"
+        os.mkfifo(path)
+    with within(30), pytest.raises(WorldFormatError, match="not a regular file"):
+        load_xml(path, WorldFormatError, "world file")

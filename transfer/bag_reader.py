@@ -36,6 +36,7 @@ import numpy as np
 
 from d3dwa_bullet.errors import BagFormatError, ScanError
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D
+from transfer.bag_files import check_bag_files
 from transfer.decode import decode_fields
 from transfer.mounts import body_yaw_rate, find_lidar_mount
 from transfer.time_series import Goal, ImuSeries, OdometrySeries, TimedValues
@@ -147,6 +148,7 @@ def read_bag(
     path = Path(path)
     if not path.exists():
         raise BagFormatError(f"{path}: no such bag (file or directory)")
+    check_bag_files(path)  # no endless metadata.yaml, no FIFO to block on
     reader = _open(path)
     try:
         available = {name: info.msgtype for name, info in reader.topics.items()}

@@ -16,6 +16,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -23,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from d3dwa_bullet.errors import BagFormatError
+from d3dwa_bullet.errors import BagFormatError, WriteError
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D
@@ -158,7 +159,11 @@ def replay_bag(
         out.mkdir(parents=True, exist_ok=True)
         result.files = {"csv": out / "replay.csv", "summary": out / "summary.json"}
         _write_json(result.files["summary"], result.summary())
-        handle = result.files["csv"].open("w", newline="")
+        try:  # replay.csv is the replay's own: replaced, but never written through a link
+            flags = os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW
+            handle = os.fdopen(os.open(result.files["csv"], flags, 0o666), "w", newline="")
+        except OSError as err:
+            raise WriteError(result.files["csv"], err) from err
         writer = csv.writer(handle)
         writer.writerow(csv_columns(observation_names(step_fn)))
         handle.flush()

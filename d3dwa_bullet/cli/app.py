@@ -20,7 +20,9 @@ options are in ``options``. A command imports the simulator, torch or matplotlib
 it runs, so ``d3dwa --help`` and ``d3dwa worlds`` start quickly.
 
 Every failure the user can cause (unknown name, malformed file, bad checkpoint) ends with a
-one-line ``d3dwa: error: ...`` on stderr and exit status 2, not a traceback. Ctrl-C (or
+one-line ``d3dwa: error: ...`` on stderr and exit status 2, not a traceback; so does a file
+system that refuses a write (a full disk, the file-size limit, a read-only directory, a file
+where a directory should be): the line names the path and the system's reason. Ctrl-C (or
 ``kill``) ends with one ``d3dwa: interrupted`` line and status 130; the line says what was
 kept only where something was (a command's ``interrupted`` default, or the message of the
 KeyboardInterrupt a command re-raises, as ``record`` does with the bag's message count).
@@ -97,6 +99,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not _stdout_gone():
             raise
         return 141  # as a shell reports a command ended by SIGPIPE
+    except OSError as err:  # a file system refused what no writer of ours named (WriteError)
+        print(f"d3dwa: error: {one_line(os_error_text(err))}", file=sys.stderr)
+        return 2
     finally:
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGTERM, previous)
@@ -105,6 +110,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 def one_line(message: str) -> str:
     """A message on one line: its non-blank lines joined by '; ' (most are one line already)."""
     return "; ".join(line.strip() for line in message.splitlines() if line.strip())
+
+
+def os_error_text(err: OSError) -> str:
+    """An OSError as '<path>: <reason>' (``No space left on device``), without errno."""
+    paths = [str(p) for p in (err.filename, err.filename2) if p is not None]
+    reason = err.strerror or str(err)
+    return f"{' -> '.join(paths)}: {reason}" if paths else reason
 
 
 def _stdout_gone() -> bool:

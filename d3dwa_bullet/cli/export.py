@@ -9,12 +9,15 @@ directory ``DIR/<method>/<its name>.onnx``. Each file is checked against the tor
 before it is written (``learning.agents.onnx_export``), and one line per file says what was
 written and the largest |Q_onnx - Q_torch| measured. The method, policy folder, seeds and
 DIR are all checked before the first file is written; ``d3dwa run --onnx FILE`` then drives
-an episode with one.
+an episode with one. An existing file is replaced only if it is a policy ``export`` wrote
+(its d3dwa metadata reads), or with ``--force``; a symbolic link, in DIR or as DIR/<method>,
+is never written through.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from d3dwa_bullet.cli.output import check_out_dir, json_text
@@ -47,6 +50,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--seeds", help="training seeds of the folder to export, e.g. 0-4 or 0,2 (default: all)"
     )
+    p.add_argument(
+        "--force", action="store_true",
+        help="replace a file in DIR even if it is not a policy written by export",
+    )  # fmt: skip
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.set_defaults(
         func=cmd_export, interrupted="the files written so far are complete; the rest were not"
@@ -72,7 +79,9 @@ def cmd_export(args: argparse.Namespace) -> int:
             f"no shipped policy of {', '.join(methods)} to export; train one, or pass "
             "--method and --policy DIR"
         )
-    check_out_dir(out, "--onnx")
+    check_out_dir(out, "--onnx", subdirs=methods)
+    for _, _, dest in jobs:
+        _check_replaceable(dest, args.force)
     rows = []
     for method, source, dest in jobs:
         reader = f"method {method!r}"
@@ -103,6 +112,27 @@ def cmd_export(args: argparse.Namespace) -> int:
     if args.json:
         print(json_text(rows))
     return 0
+
+
+def _check_replaceable(dest: Path, force: bool) -> None:
+    """ConfigError unless dest is new, a policy file export wrote, or (force) any regular
+    file: a model or a file of the user's that happens to sit there is not replaced."""
+    from d3dwa_bullet.learning.agents.onnx_policy import onnx_metadata  # start-up cost: numpy
+
+    if not os.path.lexists(dest):
+        return
+    if dest.is_symlink() or not dest.is_file():
+        what = "is a symbolic link" if dest.is_symlink() else "exists and is not a regular file"
+        raise ConfigError(f"--onnx: {dest} {what}; export writes only its own files: remove it")
+    if force:
+        return
+    try:
+        onnx_metadata(dest)
+    except CheckpointError:
+        raise ConfigError(
+            f"--onnx: {dest} exists and is not a policy written by `d3dwa export`; remove it, "
+            "choose another DIR, or pass --force to replace it"
+        ) from None
 
 
 def _methods(method: str | None, policy: str | None) -> list[str]:

@@ -49,13 +49,19 @@ def check_out_dir(
     path: str | os.PathLike[str], option: str = "--out", subdirs: Iterable[str] = ()
 ) -> Path:
     """The output directory of a command, created and checked writable (with subdirs, the
-    entries the command will make directories, such as logs/ and figures/)."""
+    entries the command will make directories, such as logs/ and figures/, each refused if
+    it is a symbolic link or a file)."""
     out = Path(path)
     if os.path.lexists(out) and not out.is_dir():
         raise ConfigError(f"{option} {out}: exists and is not a directory")
     _make_dir(out, option, out)
     for name in subdirs:
         sub = out / name
+        if sub.is_symlink():  # files written into it would land wherever it points
+            raise ConfigError(
+                f"{option} {out}: {sub} is a symbolic link; a command writes only inside "
+                f"{option} (remove the link, or use another directory)"
+            )
         if os.path.lexists(sub) and not sub.is_dir():
             raise ConfigError(f"{option} {out}: {sub} exists and is not a directory")
     return out

@@ -31,8 +31,9 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict
 from pathlib import Path
@@ -41,8 +42,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from d3dwa_bullet import __version__
+from d3dwa_bullet.episode_metrics import OUTCOMES
 from d3dwa_bullet.errors import ResultsError
-from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text, read_text
+from d3dwa_bullet.io import AppendFile, atomic_write_bytes, atomic_write_text, read_text
 from d3dwa_bullet.loading import load_json, parse_json
 
 if TYPE_CHECKING:  # for annotations only: this module reads and writes files, runs nothing
@@ -110,15 +112,49 @@ def read_results(out: Path) -> list[dict[str, Any]]:
     for line, row in enumerate(rows, start=2):
         if set(CSV_FIELDS) - set(row):
             raise ResultsError(f"{path}: missing columns {sorted(set(CSV_FIELDS) - set(row))}")
-        try:
-            row["seed"], row["steps"] = int(row["seed"]), int(row["steps"])
-            row["policy_seed"] = int(row["policy_seed"]) if row["policy_seed"] != "" else None
-            for k in ("time_s", "tl_m", "pd_rad", "min_clearance_m"):
-                row[k] = float(row[k])
-            row[RECOVERY_FIELD] = row.get(RECOVERY_FIELD) or "none"
-        except (TypeError, ValueError) as err:
-            raise ResultsError(f"{path}: line {line}: not a results row ({err})") from err
+        for column, (parse, expected) in _TYPED_COLUMNS.items():
+            try:
+                row[column] = parse(row[column])
+            except (TypeError, ValueError) as err:  # TypeError: a row shorter than the header
+                raise ResultsError(
+                    f"{path}: line {line}: not a results row: column {column!r} is "
+                    f"{row[column]!r}, not {expected}"
+                ) from err
+        row[RECOVERY_FIELD] = row.get(RECOVERY_FIELD) or "none"
     return rows
+
+
+def _checked(parse: Callable[[str], Any], ok: Callable[[Any], bool]) -> Callable[[str], Any]:
+    """parse, refusing (ValueError) a value that ok says no to."""
+
+    def read(text: str) -> Any:
+        if not ok(value := parse(text)):
+            raise ValueError(text)
+        return value
+
+    return read
+
+
+_COUNT = (_checked(int, lambda v: v >= 0), "a whole number >= 0")
+_TYPED_COLUMNS: dict[str, tuple[Callable[[str], Any], str]] = {
+    "seed": _COUNT,
+    "policy_seed": (
+        _checked(lambda t: None if t == "" else int(t), lambda v: v is None or v >= 0),
+        "empty or a whole number >= 0",
+    ),
+    "outcome": (_checked(str, lambda v: v in OUTCOMES), f"one of {', '.join(OUTCOMES)}"),
+    **dict.fromkeys(
+        ("time_s", "tl_m", "pd_rad"),
+        (_checked(float, lambda v: math.isfinite(v) and v >= 0), "a finite number >= 0"),
+    ),
+    "min_clearance_m": (
+        _checked(float, lambda v: not math.isnan(v) and v > -math.inf),
+        "a number, or inf for a world without obstacles",
+    ),
+    "steps": _COUNT,
+}
+"""How read_results reads each typed column, and what the message says it must be: a NaN
+or inf where a table averages, or an outcome no table counts, is refused, not counted."""
 
 
 def read_meta(out: Path) -> dict[str, Any]:
@@ -166,7 +202,14 @@ def check_results_dir(
     """Refuse a results directory written by another format version, or (with fields) one
     whose results.csv has other columns (e.g. a sweep's directory given to eval), or (with
     recovery, the command's --recovery) one whose episodes ran with another recovery layer:
-    the paper track and a recovery track never share a directory."""
+    the paper track and a recovery track never share a directory. A results.csv or
+    meta.json that is a symbolic link is refused: a command never writes through one."""
+    for name in ("results.csv", "meta.json"):
+        if (out / name).is_symlink():
+            raise ResultsError(
+                f"{out / name}: is a symbolic link; a results directory holds only files d3dwa "
+                "wrote there (remove the link, or use another --out directory)"
+            )
     meta = out / "meta.json"
     if meta.exists():
         fmt = read_meta(out).get("format")
@@ -269,7 +312,7 @@ def drop_partial_row(path: Path) -> bool:
     True if something was cut. Its episode is then simply run again."""
     if not path.exists() or path.stat().st_size == 0:
         return False
-    with path.open("rb+") as fh:
+    with os.fdopen(os.open(path, os.O_RDWR | os.O_NOFOLLOW), "rb+") as fh:  # not through a link
         fh.seek(-1, os.SEEK_END)
         if fh.read(1) == b"\n":
             return False
@@ -284,19 +327,16 @@ def drop_partial_row(path: Path) -> bool:
 def appending_rows(out: Path, fields: Sequence[str]) -> Iterator[Any]:
     """A function ``append(row)`` that adds one row to out/results.csv and flushes it (the
     header first if the file is new or empty). Columns outside fields are ignored."""
-    path = out / "results.csv"
-    new_file = not path.exists() or path.stat().st_size == 0
-    with path.open("a", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(fields), extrasaction="ignore")
-        if new_file:
-            writer.writeheader()
-            fh.flush()
+    with AppendFile(out / "results.csv") as fh:  # whole rows, never through a link
 
-        def append(row: Mapping[str, Any]) -> None:
-            writer.writerow(row)
-            fh.flush()
+        def line(write: Any) -> None:
+            buffer = io.StringIO(newline="")
+            write(csv.DictWriter(buffer, fieldnames=list(fields), extrasaction="ignore"))
+            fh.write(buffer.getvalue().encode("utf-8"))
 
-        yield append
+        if fh.size == 0:
+            line(lambda writer: writer.writeheader())
+        yield lambda row: line(lambda writer: writer.writerow(row))
 
 
 def order_results(out: Path, keys: Sequence[Key]) -> bool:

@@ -29,6 +29,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from d3dwa_bullet.errors import WorldFormatError
+from d3dwa_bullet.loading import load_xml
 from d3dwa_bullet.world.model import Box, Cylinder, Obstacle, World, validate_task
 
 DEFAULT_START = (0.0, 0.0, 0.0)
@@ -157,16 +158,12 @@ def load_sdf_world(
 
     Name = file stem, group "custom". Without ``start``/``goal`` the task is the
     placeholder (0, 0, 0) -> (1, 0), unvalidated (see the module docstring). Raises
-    WorldFormatError naming file, model and field for malformed XML, a missing or
-    non-positive box size, or a cylinder without a positive radius/length.
+    WorldFormatError naming file, model and field for malformed XML, elements nested deeper
+    than MAX_XML_DEPTH, a missing or non-positive box size, or a cylinder without a
+    positive radius/length.
     """
     path = Path(path)
-    try:
-        root = ET.parse(path).getroot()
-    except ET.ParseError as err:
-        raise WorldFormatError(f"{path}: not well-formed XML: {err}") from err
-    except OSError as err:
-        raise WorldFormatError(f"{path}: cannot read: {err}") from err
+    root = load_xml(path, WorldFormatError, "world file")  # bounded: size, depth, regular file
     worlds = [root] if root.tag == "world" else root.findall("world")
     if not worlds:
         raise WorldFormatError(

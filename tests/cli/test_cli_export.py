@@ -110,6 +110,40 @@ def test_an_existing_file_as_the_output_directory_is_refused(capsys, tmp_path: P
     assert file.read_text() == "mine"
 
 
+def test_a_file_export_did_not_write_is_replaced_only_with_force(capsys, tmp_path: Path) -> None:
+    argv = ["export", "--onnx", tmp_path, "--method", "d3dwa", "--seeds", "0"]
+    target = tmp_path / "d3dwa" / "seed-0.onnx"
+    target.parent.mkdir()
+    target.write_text("my notes, not a policy")
+    line = refused(capsys, *argv)
+    assert f"{target} exists and is not a policy written by `d3dwa export`" in line
+    assert "--force" in line and target.read_text() == "my notes, not a policy"
+    assert run(capsys, *argv, "--force")[0] == 0
+    policy = target.read_bytes()
+    assert policy.startswith(b"\x08") and b"d3dwa.format_version" in policy
+    assert run(capsys, *argv)[0] == 0  # a policy it wrote: replaced without --force
+    assert target.read_bytes() == policy
+
+
+@pytest.mark.parametrize("link", ["d3dwa", "d3dwa/seed-0.onnx"])
+def test_export_never_writes_through_a_link_in_its_directory(capsys, tmp_path, link) -> None:
+    out, outside = tmp_path / "out", tmp_path / "outside"
+    outside.mkdir()
+    (outside / "seed-0.onnx").write_text("not yours")
+    if link == "d3dwa":
+        out.mkdir()
+        (out / "d3dwa").symlink_to(outside)
+    else:
+        (out / "d3dwa").mkdir(parents=True)
+        (out / "d3dwa" / "seed-0.onnx").symlink_to(outside / "seed-0.onnx")
+    argv = ["export", "--onnx", out, "--method", "d3dwa", "--seeds", "0", "--force"]
+    line = refused(capsys, *argv)
+    assert f"{out / link} is a symbolic link" in line
+    assert files_under(outside) == ["seed-0.onnx"]
+    assert (outside / "seed-0.onnx").read_text() == "not yours"
+    assert (out / link).is_symlink()
+
+
 @pytest.fixture(scope="module")
 def d3dwa_onnx(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from d3dwa_bullet.learning.agents.onnx_export import export_onnx

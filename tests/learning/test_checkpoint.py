@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import errno
 import json
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -11,7 +13,7 @@ import pytest
 import torch
 
 from d3dwa_bullet import __version__
-from d3dwa_bullet.errors import CheckpointError
+from d3dwa_bullet.errors import CheckpointError, WriteError
 from d3dwa_bullet.learning.agents import checkpoint as ckpt
 from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint, save_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
@@ -278,11 +280,13 @@ def test_failed_save_keeps_existing_checkpoint(
     _assert_intact(target, good)
 
     def exploding_save(obj, f, *args, **kwargs):
-        Path(f).write_bytes(b"PK\x03\x04partial")
-        raise OSError("disk full")
+        f.write(b"PK\x03\x04partial")
+        raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(ckpt.torch, "save", exploding_save)
-    with pytest.raises(OSError, match="disk full"):
+    with pytest.raises(
+        WriteError, match=f"^{re.escape(str(target))}: cannot write: No space left on device$"
+    ):
         save_checkpoint(target, other)
     _assert_intact(target, good)
 

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
+from d3dwa_bullet.errors import WriteError
 from d3dwa_bullet.learning.training import TrainConfig, read_metrics, train
 from d3dwa_bullet.learning.training import logs as logs_module
 from d3dwa_bullet.learning.training.logs import MetricsLog
@@ -100,3 +101,16 @@ def test_tensorboard_false_writes_no_events_and_says_nothing(
 ) -> None:
     MetricsLog(tmp_path, tensorboard=False).close()
     assert not (tmp_path / "tb").exists() and capsys.readouterr().err == ""
+
+
+def test_resuming_never_cuts_or_appends_to_a_log_through_a_link(tmp_path: Path) -> None:
+    outside = tmp_path / "precious.jsonl"
+    outside.write_text('{"mine": 1}\n' * 10)
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "metrics.jsonl").symlink_to(outside)
+    with pytest.raises(WriteError, match="metrics.jsonl: cannot write: it is a symbolic link"):
+        truncate_logs(run, {"metrics.jsonl": 12})
+    with pytest.raises(WriteError, match="metrics.jsonl: cannot write: it is a symbolic link"):
+        MetricsLog(run, tensorboard=False)
+    assert outside.read_text() == '{"mine": 1}\n' * 10

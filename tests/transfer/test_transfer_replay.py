@@ -14,7 +14,7 @@ from d3dwa_bullet.cli.transfer import (
     run_compare,
     run_replay,
 )
-from d3dwa_bullet.errors import BagFormatError
+from d3dwa_bullet.errors import BagFormatError, WriteError
 from d3dwa_bullet.planning.observation import build_observation
 from d3dwa_bullet.sim.scan import LaserScan, scan_points_body
 from tests.support.bag_messages import scan_msg
@@ -208,3 +208,14 @@ def test_cli_replay_and_compare(tmp_path):
     out = io.StringIO()
     assert run_compare(parser.parse_args([str(tmp_path / "a"), str(tmp_path / "b")]), out=out) == 0
     assert "| sector |" in out.getvalue() and "/scan" in out.getvalue()
+
+
+def test_replay_never_writes_its_csv_through_a_link_in_out(tmp_path):
+    write_corridor_bag(tmp_path / "bag")
+    out, outside = tmp_path / "out", tmp_path / "precious.csv"
+    out.mkdir()
+    outside.write_text("not a replay\n")
+    (out / "replay.csv").symlink_to(outside)
+    with pytest.raises(WriteError, match="replay.csv: cannot write: it is a symbolic link"):
+        replay_bag(tmp_path / "bag", out_dir=out, plots=False)
+    assert outside.read_text() == "not a replay\n"

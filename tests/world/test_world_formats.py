@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
+from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.errors import WorldFormatError
 from d3dwa_bullet.world.map_server import load_map_world, mask_to_boxes
 from d3dwa_bullet.world.model import Box, Cylinder
@@ -386,3 +387,26 @@ def test_mask_to_boxes_covers_the_mask_exactly(seed):
         cover[r0 : r1 + 1, c0 : c1 + 1] += 1
     assert np.array_equal(cover, mask.astype(int))
     assert len(boxes) < mask.sum()
+
+
+def test_sdf_of_thousands_of_nested_models_is_refused_in_one_line(tmp_path, capsys):
+    depth = 5_000
+    path = tmp_path / "deep.world"
+    path.write_text('<sdf version="1.7"><world name="w">' + '<model name="m">' * depth
+                    + "</model>" * depth + "</world></sdf>")  # fmt: skip
+    with pytest.raises(WorldFormatError, match=rf"^{path}: <model> is nested more than"):
+        load_sdf_world(path)
+    assert main(["run", "--world", str(path), "--method", "dwa1"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"d3dwa: error: {path}: <model> is nested more than ")
+
+
+def test_sdf_with_nested_models_within_the_limit_still_loads(tmp_path):
+    depth = 20  # 20 models, each inside the last: 22 + 5 elements deep at the box's size
+    inner = ('<link name="l"><collision name="c"><geometry><box><size>0.2 0.2 0.2</size>'
+             "</box></geometry></collision></link>")  # fmt: skip
+    text = ('<sdf version="1.7"><world name="w">' + '<model name="m"><pose>0.1 0 0 0 0 0</pose>'
+            * depth + inner + "</model>" * depth + "</world></sdf>")  # fmt: skip
+    _, w = load_sdf_text(tmp_path, text)
+    (box,) = w.obstacles
+    assert box.center == pytest.approx((0.1 * depth, 0.0))

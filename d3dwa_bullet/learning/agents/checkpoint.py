@@ -32,6 +32,7 @@ policies carry no training state.
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import os
 import pickle
@@ -46,7 +47,7 @@ import numpy as np
 import torch
 
 from d3dwa_bullet import __version__
-from d3dwa_bullet.errors import CheckpointError, ConfigError
+from d3dwa_bullet.errors import CheckpointError, ConfigError, WriteError
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
 from d3dwa_bullet.learning.agents.network import check_network_fits
@@ -96,11 +97,8 @@ def _digest(path: Path) -> dict[str, Any]:
 
 
 def _fsync(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
+    with open(path, "rb") as f:
+        os.fsync(f.fileno())
 
 
 def save_checkpoint(
@@ -154,13 +152,13 @@ def save_checkpoint(
     }
     tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.tmp-", dir=target.parent))
     try:
-        data = tmp / _DATA_FILES[family]
-        if isinstance(agent, D3QNAgent):
+        data, buffer = tmp / _DATA_FILES[family], io.BytesIO()  # torch.save(state, data)
+        if isinstance(agent, D3QNAgent):  # would end a full disk in a RuntimeError, not OSError
             state = {k: v.detach().clone().contiguous() for k, v in agent.state_dict().items()}
-            torch.save(state, data)
+            torch.save(state, buffer)
         else:
-            with open(data, "wb") as f:
-                np.save(f, agent.table, allow_pickle=False)
+            np.save(buffer, agent.table, allow_pickle=False)
+        data.write_bytes(buffer.getvalue())
         _fsync(data)
         meta["files"][data.name] = _digest(data)
         for name, content in sorted(extras.items()):
@@ -180,6 +178,8 @@ def save_checkpoint(
         (tmp / META_FILE).write_text(text + "\n", encoding="utf-8")
         _fsync(tmp / META_FILE)
         _swap_in(tmp, target)
+    except OSError as err:  # a full disk, the file-size limit: the old checkpoint stays
+        raise WriteError(target, err) from err
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)

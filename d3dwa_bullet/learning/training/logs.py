@@ -21,6 +21,7 @@ are written and that the scalars are in metrics.jsonl.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import os
 import sys
@@ -33,7 +34,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from d3dwa_bullet.errors import TrainingError
-from d3dwa_bullet.io import atomic_savefig
+from d3dwa_bullet.io import AppendFile, atomic_savefig
 from d3dwa_bullet.learning.training.run_dir import (
     EPISODES_FILE,
     LOG_FILES,
@@ -82,12 +83,13 @@ class MetricsLog:
         if not new:  # resuming: keep the file's own columns (a run from an older version)
             with path.open(newline="") as fh:
                 fieldnames = next(csv.reader(fh), fieldnames)
-        self._episodes = path.open("a", newline="")
-        self._writer = csv.DictWriter(self._episodes, fieldnames=fieldnames, extrasaction="ignore")
+        # each record whole or not at all, named on a full disk, never through a link
+        self._episodes = AppendFile(path)
+        self._fields = fieldnames
         if new:
-            self._writer.writeheader()
+            self.episode(dict(zip(fieldnames, fieldnames, strict=True)))
         purge_step = _step_after_last_record(out / METRICS_FILE)
-        self._metrics = (out / METRICS_FILE).open("a")
+        self._metrics = AppendFile(out / METRICS_FILE)
         self._tb = None
         if tensorboard and SummaryWriter is not None:
             self._tb = SummaryWriter(str(out / TENSORBOARD_DIR), purge_step=purge_step)
@@ -95,24 +97,26 @@ class MetricsLog:
             _say_no_tensorboard(out)
 
     def scalar(self, step: int, tag: str, value: float) -> None:
-        self._metrics.write(json.dumps({"step": step, "tag": tag, "value": float(value)}) + "\n")
+        self._record({"step": step, "tag": tag, "value": float(value)})
         if self._tb is not None:
             self._tb.add_scalar(tag, value, step)
 
     def histogram(self, step: int, tag: str, counts: Mapping[str, int]) -> None:
-        self._metrics.write(
-            json.dumps({"step": step, "tag": tag, "histogram": dict(counts)}) + "\n"
-        )
+        self._record({"step": step, "tag": tag, "histogram": dict(counts)})
         if self._tb is not None:
             for k, n in counts.items():
                 self._tb.add_scalar(f"{tag}_count/{k}", n, step)
 
+    def _record(self, record: Mapping[str, Any]) -> None:
+        self._metrics.write((json.dumps(record) + "\n").encode())
+
     def episode(self, row: Mapping[str, Any]) -> None:
-        self._writer.writerow(row)
+        buffer = io.StringIO(newline="")
+        csv.DictWriter(buffer, fieldnames=self._fields, extrasaction="ignore").writerow(row)
+        self._episodes.write(buffer.getvalue().encode("utf-8"))
 
     def flush(self) -> None:
-        self._episodes.flush()
-        self._metrics.flush()
+        """TensorBoard's events to disk (the CSV and JSON records are written as they come)."""
         if self._tb is not None:
             self._tb.flush()
 

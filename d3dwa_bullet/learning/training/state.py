@@ -23,6 +23,7 @@ import numpy as np
 from gymnasium.utils.seeding import np_random
 
 from d3dwa_bullet.errors import TrainingError
+from d3dwa_bullet.io import AppendFile
 from d3dwa_bullet.learning.training.config import TrainConfig
 from d3dwa_bullet.learning.training.curriculum import Curriculum
 from d3dwa_bullet.learning.training.logs import SUCCESS_WINDOW
@@ -141,8 +142,8 @@ def truncate_logs(out: Path, log_sizes: Mapping[str, int]) -> None:
     for name, size in log_sizes.items():
         path = out / name
         if path.exists() and path.stat().st_size > size:
-            with path.open("r+b") as fh:  # drop what was logged after the checkpoint
-                fh.truncate(size)
+            with AppendFile(path) as fh:  # never through a link planted in the run directory
+                fh.cut(size)  # drop what was logged after the checkpoint
 
 
 def rebuild_plans(episodes: list[EpisodeProgress]) -> list[dict[str, Any]]:
