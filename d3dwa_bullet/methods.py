@@ -97,13 +97,18 @@ class Controller:
     uniform: bool = False
     """Draws its index uniformly from ``actions`` every step (a reference method), ignoring
     the observation."""
+    hold: int = 1
+    """Control steps each chosen action is kept for: a policy trained with ``decision_steps``
+    k > 1 (beyond the paper, docs/design.md#decision-period) chooses every k steps."""
     _rng: np.random.Generator | None = field(default=None, init=False, repr=False)
+    _held: tuple[int, int] | None = field(default=None, init=False, repr=False)
 
     def reset(self, episode_seed: int) -> None:
         """Start an episode. A uniform controller seeds its own generator from the episode
         seed (``RANDOM_STREAM``): the same seed gives the same actions, and no other stream of
         the episode is drawn from. The others keep no state across steps: nothing to do.
-        ConfigError for a seed numpy cannot take (negative)."""
+        ConfigError for a seed numpy cannot take (negative). A held action ends here."""
+        self._held = None
         if not self.uniform:
             return
         if int(episode_seed) < 0:
@@ -117,6 +122,10 @@ class Controller:
     def __call__(self, obs: np.ndarray) -> tuple[int, PlannerAction]:
         if self.fixed is not None:
             return -1, self.fixed
+        if self._held is not None and self._held[1] > 0:
+            index, left = self._held
+            self._held = (index, left - 1)
+            return index, self.actions.decode(index)  # type: ignore[union-attr]
         if self.uniform:
             if self._rng is None:
                 raise RuntimeError(
@@ -126,6 +135,8 @@ class Controller:
             index = int(self._rng.integers(len(self.actions)))  # type: ignore[arg-type]
         else:
             index = int(self.policy(obs))  # type: ignore[misc]
+        if self.hold > 1:
+            self._held = (index, self.hold - 1)
         return index, self.actions.decode(index)  # type: ignore[union-attr]
 
 
@@ -168,10 +179,15 @@ def make_controller(
 
     path, source = one_policy(name, policy_path)
     kind = method_observation(name)
-    policy, actions, _ = load_policy(
+    policy, actions, meta = load_policy(
         path, expected_actions=LEARNED[name], expected_observation=(kind, f"method {name!r}")
     )
-    return Controller(name, policy=policy, actions=actions, source=source, observation=kind)
+    hold = int(meta.get("metadata", {}).get("decision_steps", 1))
+    if hold > 1:
+        source += f" (one decision every {hold} control steps)"
+    return Controller(
+        name, policy=policy, actions=actions, source=source, observation=kind, hold=hold
+    )
 
 
 def refuse_policy(
