@@ -23,7 +23,9 @@ as the client expects (``set_robot_velocity`` then enables it and sends again). 
 ``lockstep`` mode each accepted command runs one control period and takes the next snapshot,
 so a run is deterministic whatever the wall clock does; in ``realtime`` mode a thread steps
 physics at the control rate with the newest command, and a command older than
-``COMMAND_TIMEOUT_S`` counts as a stop (a silent client cannot drive the robot on).
+``COMMAND_TIMEOUT_S`` counts as a stop (a silent client cannot drive the robot on). A
+command that is not finite (NaN, inf) is an ``INVALID_ARGUMENT`` error and changes nothing:
+every client shares this robot, so no client's input may break it for the others.
 """
 
 from __future__ import annotations
@@ -245,6 +247,16 @@ class SimulatedKachaka(KachakaApiServicer):
 
     def SetRobotVelocity(self, request, context):  # noqa: N802
         v, w = command_of(request, context.invocation_metadata())
+        if not (math.isfinite(v) and math.isfinite(w)):
+            # one client's NaN must not break the robot every client shares: refused, and
+            # the robot keeps the last accepted command
+            with self._cond:
+                self.requests.append((v, w, False))
+            context.abort(
+                grpc.StatusCode.INVALID_ARGUMENT,
+                f"velocity must be finite, got linear {request.linear!r}, "
+                f"angular {request.angular!r}",
+            )
         with self._cond:
             self.requests.append((v, w, self.manual_control))
             if not self.manual_control:
