@@ -48,3 +48,32 @@ def test_a_non_finite_command_is_refused_and_the_robot_stays_whole(serve, mode, 
     if mode == "lockstep":
         assert after == before  # a refused command did not step the robot
     link.close()
+
+
+def test_plain_reads_never_wait_behind_clients_waiting_for_the_next_snapshot(serve):
+    """Many clients holding the newest cursor (waiting for a snapshot that, in lockstep,
+    only a command makes) leave a plain read and a command their answer within drive's
+    default deadline (0.5 s)."""
+    sim, address = serve(load_world("R1"), mode="lockstep")
+    channel = grpc.insecure_channel(address)
+    stub = KachakaApiStub(channel)
+    cursor = stub.GetRosOdometry(pb2.GetRequest(), timeout=5).metadata.cursor
+    waiting = pb2.GetRequest(metadata=pb2.Metadata(cursor=cursor))
+    answered: list[int] = []
+
+    def wait_for_next() -> None:
+        answered.append(stub.GetRosOdometry(waiting, timeout=10).metadata.cursor)
+
+    waiters = [threading.Thread(target=wait_for_next) for _ in range(24)]
+    for thread in waiters:
+        thread.start()
+    time.sleep(0.3)  # every waiter has sent its call
+    link = KachakaLink(address, timeout=0.5)
+    reading = link.read()  # RobotLinkError (deadline exceeded) if it queued behind them
+    assert reading.odometry.stamp_ns > 0
+    link.command(0.1, 0.0)  # a command gets through too, and makes the next snapshot
+    for thread in waiters:
+        thread.join(timeout=10)
+    link.close()
+    channel.close()
+    assert len(answered) == len(waiters) and all(c >= cursor for c in answered)
