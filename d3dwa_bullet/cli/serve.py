@@ -12,7 +12,7 @@ import signal
 import threading
 
 from d3dwa_bullet.cli.drive import robot_extra
-from d3dwa_bullet.cli.options import add_world_option, load_cli_world, noise_arg
+from d3dwa_bullet.cli.options import add_world_option, load_cli_world, noise_arg, seed_arg
 from d3dwa_bullet.errors import ConfigError
 
 
@@ -43,6 +43,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
         raise ConfigError(f"--port must be 0-65535, got {args.port}")
     world = load_cli_world(args.world, args.allow_empty)
     noise_arg(args.noise)
+    seed_arg(args.seed)
     live = robot_extra("serve")
     # start-up cost: the simulator (pybullet) only when serving
     from d3dwa_bullet.evaluation.jobs import make_noise
