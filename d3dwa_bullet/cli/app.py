@@ -20,7 +20,9 @@ options are in ``options``. A command imports the simulator, torch or matplotlib
 it runs, so ``d3dwa --help`` and ``d3dwa worlds`` start quickly.
 
 Every failure the user can cause (unknown name, malformed file, bad checkpoint) ends with a
-one-line ``d3dwa: error: ...`` on stderr and exit status 2, not a traceback. Ctrl-C (or
+one-line ``d3dwa: error: ...`` on stderr and exit status 2, not a traceback; the line's
+control characters (a robot's error text may carry ESC or BEL) are printed as escapes
+(:func:`d3dwa_bullet.cli.output.printable`). Ctrl-C (or
 ``kill``) ends with one ``d3dwa: interrupted`` line and status 130; the line says what was
 kept only where something was (a command's ``interrupted`` default, or the message of the
 KeyboardInterrupt a command re-raises, as ``record`` does with the bag's message count).
@@ -50,6 +52,7 @@ import d3dwa_bullet.cli.sweep as sweep_command
 import d3dwa_bullet.cli.train as train_command
 import d3dwa_bullet.cli.worlds as worlds_command
 from d3dwa_bullet.cli.options import CommandParser
+from d3dwa_bullet.cli.output import printable
 from d3dwa_bullet.errors import D3DWAError
 
 COMMANDS = (
@@ -87,11 +90,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except D3DWAError as err:
-        print(f"d3dwa: error: {one_line(str(err))}", file=sys.stderr)
+        print(f"d3dwa: error: {printable(one_line(str(err)))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as err:
         kept = str(err) or getattr(args, "interrupted", "")
-        print("d3dwa: interrupted" + (f"; {one_line(kept)}" if kept else ""), file=sys.stderr)
+        kept = printable(one_line(kept))
+        print("d3dwa: interrupted" + (f"; {kept}" if kept else ""), file=sys.stderr)
         return 130
     except BrokenPipeError:
         if not _stdout_gone():
