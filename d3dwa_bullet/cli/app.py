@@ -22,7 +22,9 @@ it runs, so ``d3dwa --help`` and ``d3dwa worlds`` start quickly.
 Every failure the user can cause (unknown name, malformed file, bad checkpoint) ends with a
 one-line ``d3dwa: error: ...`` on stderr and exit status 2, not a traceback; so does a file
 system that refuses a write (a full disk, the file-size limit, a read-only directory, a file
-where a directory should be): the line names the path and the system's reason. Ctrl-C (or
+where a directory should be): the line names the path and the system's reason. The line's
+control characters (a robot's error text may carry ESC or BEL) are printed as escapes
+(:func:`d3dwa_bullet.cli.output.printable`). Ctrl-C (or
 ``kill``) ends with one ``d3dwa: interrupted`` line and status 130; the line says what was
 kept only where something was (a command's ``interrupted`` default, or the message of the
 KeyboardInterrupt a command re-raises, as ``record`` does with the bag's message count).
@@ -52,6 +54,7 @@ import d3dwa_bullet.cli.sweep as sweep_command
 import d3dwa_bullet.cli.train as train_command
 import d3dwa_bullet.cli.worlds as worlds_command
 from d3dwa_bullet.cli.options import CommandParser
+from d3dwa_bullet.cli.output import printable
 from d3dwa_bullet.errors import D3DWAError
 
 COMMANDS = (
@@ -89,18 +92,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except D3DWAError as err:
-        print(f"d3dwa: error: {one_line(str(err))}", file=sys.stderr)
+        print(f"d3dwa: error: {printable(one_line(str(err)))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as err:
         kept = str(err) or getattr(args, "interrupted", "")
-        print("d3dwa: interrupted" + (f"; {one_line(kept)}" if kept else ""), file=sys.stderr)
+        kept = printable(one_line(kept))
+        print("d3dwa: interrupted" + (f"; {kept}" if kept else ""), file=sys.stderr)
         return 130
     except BrokenPipeError:
         if not _stdout_gone():
             raise
         return 141  # as a shell reports a command ended by SIGPIPE
     except OSError as err:  # a file system refused what no writer of ours named (WriteError)
-        print(f"d3dwa: error: {one_line(os_error_text(err))}", file=sys.stderr)
+        print(f"d3dwa: error: {printable(one_line(os_error_text(err)))}", file=sys.stderr)
         return 2
     finally:
         if threading.current_thread() is threading.main_thread():

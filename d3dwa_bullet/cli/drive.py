@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import os
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -34,7 +35,11 @@ ROBOT_EXTRA = 'pip install "d3dwa-bullet[robot]"'
 
 
 def robot_extra(command: str) -> ModuleType:
-    """``d3dwa_bullet.live``, or a ConfigError telling how to install the robot extra."""
+    """``d3dwa_bullet.live``, or a ConfigError telling how to install the robot extra.
+
+    gRPC's C core is kept quiet (``GRPC_VERBOSITY=NONE`` unless the user set it): it would
+    log its own lines to stderr before the command's one-line error."""
+    os.environ.setdefault("GRPC_VERBOSITY", "NONE")  # read when grpc's core starts
     try:
         # optional dependency: grpc and kachaka_api come with the robot extra only
         return importlib.import_module("d3dwa_bullet.live")

@@ -26,6 +26,7 @@ from d3dwa_bullet.cli.options import (
     load_cli_world,
     noise_arg,
     policy_arg,
+    seed_arg,
     workers_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
@@ -84,6 +85,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     if args.seeds < 1:
         raise ConfigError(f"--seeds must be >= 1, got {args.seeds}")
     MAX_SEEDS.check("--seeds", args.seeds, "seeds")
+    seed_arg(args.seed)
     MAX_SEED_VALUE.check("--seed + --seeds - 1 (the last seed)", args.seed + args.seeds - 1)
     seeds = list(range(args.seed, args.seed + args.seeds))
     runs = method_runs(methods, policy, args.policy_seeds)

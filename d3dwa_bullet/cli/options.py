@@ -23,7 +23,13 @@ from collections.abc import Callable, Sequence
 
 from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, WorldFormatError
-from d3dwa_bullet.limits import MAX_CONTROL_HZ, MAX_PHYSICS_HZ, MAX_TIME_LIMIT_S, check_processes
+from d3dwa_bullet.limits import (
+    MAX_CONTROL_HZ,
+    MAX_PHYSICS_HZ,
+    MAX_SEED_VALUE,
+    MAX_TIME_LIMIT_S,
+    check_processes,
+)
 from d3dwa_bullet.methods import (
     BEYOND_PAPER,
     FIXED,
@@ -112,6 +118,15 @@ def noise_arg(name: str) -> str:
     if name != "none":
         load_profile(name)  # ProfileError: one line naming the profile or file
     return name
+
+
+def seed_arg(value: int, option: str = "--seed") -> int:
+    """An episode seed checked: an integer 0..``MAX_SEED_VALUE`` (numpy's and PyBullet's
+    seeds; a negative one ends numpy's seeding in a traceback)."""
+    if value < 0:
+        raise ConfigError(f"{option} must be an integer >= 0, got {value}")
+    MAX_SEED_VALUE.check(option, value)
+    return value
 
 
 def time_limit_arg(value: float | None, option: str = "--time-limit") -> float | None:

@@ -7,6 +7,10 @@ directory that is a file, a path under a file, a location without write permissi
 that cannot be created), a file name too long for the file system. They create the missing
 directories the command would create anyway.
 
+Text from outside (a robot's error details, a server's message, a field of a file) reaches
+the terminal through :func:`printable`: its control characters are shown as escapes, never
+sent, so no remote end can clear, retitle, recolour or ring the user's terminal.
+
 ``--json`` output is strict JSON (RFC 8259 has no NaN or Infinity): :func:`json_text` writes
 non-finite floats, such as the minimum clearance of a world without obstacles, as ``null``.
 """
@@ -16,6 +20,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import unicodedata
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -120,3 +125,17 @@ def strict(value: Any) -> Any:
 def json_text(value: Any, **kwargs: Any) -> str:
     """``json.dumps`` that never writes NaN or Infinity (see :func:`strict`)."""
     return json.dumps(strict(value), allow_nan=False, **kwargs)
+
+
+def printable(text: str) -> str:
+    """text with every control, format or unassigned character (ESC, BEL, CR, a bidi override,
+    a lone surrogate, a line separator) written as its Python escape (``\\x1b``): what a
+    command prints of a message that may come from a remote end."""
+    return "".join(
+        ch.encode("unicode_escape").decode("ascii") if _unsafe(ch) else ch for ch in text
+    )
+
+
+def _unsafe(ch: str) -> bool:
+    category = unicodedata.category(ch)
+    return category[0] == "C" or category in ("Zl", "Zp")

@@ -17,6 +17,7 @@ from d3dwa_bullet.cli.options import (
     episode_config,
     load_task_world,
     noise_arg,
+    seed_arg,
 )
 from d3dwa_bullet.cli.output import check_out_file, json_text
 from d3dwa_bullet.errors import ConfigError
@@ -49,6 +50,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     config = episode_config(args)
     world = load_task_world(args)
     noise_arg(args.noise)
+    seed_arg(args.seed)
     if args.onnx is not None and args.policy is not None:
         raise ConfigError(
             f"--onnx {args.onnx} and --policy {args.policy} both name the policy: give one"

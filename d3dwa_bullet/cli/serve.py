@@ -8,11 +8,13 @@ shuts down and exits 0 saying how many commands it took.
 from __future__ import annotations
 
 import argparse
+import errno
 import signal
+import socket
 import threading
 
 from d3dwa_bullet.cli.drive import robot_extra
-from d3dwa_bullet.cli.options import add_world_option, load_cli_world, noise_arg
+from d3dwa_bullet.cli.options import add_world_option, load_cli_world, noise_arg, seed_arg
 from d3dwa_bullet.errors import ConfigError
 
 
@@ -41,8 +43,10 @@ def cmd_serve(args: argparse.Namespace) -> int:
     # Input is checked before the robot extra and the simulator are imported.
     if not 0 <= args.port < 65536:
         raise ConfigError(f"--port must be 0-65535, got {args.port}")
+    check_listen(args.host, args.port)
     world = load_cli_world(args.world, args.allow_empty)
     noise_arg(args.noise)
+    seed_arg(args.seed)
     live = robot_extra("serve")
     # start-up cost: the simulator (pybullet) only when serving
     from d3dwa_bullet.evaluation.jobs import make_noise
@@ -75,3 +79,26 @@ def cmd_serve(args: argparse.Namespace) -> int:
     said = f"; the last asked for v {last[0]:g} m/s, w {last[1]:g} rad/s" if last else ""
     print(f"stopped after {len(servicer.received)} velocity commands{said}", flush=True)
     return 0
+
+
+def check_listen(host: str, port: int) -> None:
+    """ConfigError naming --host or --port unless a server could listen on host:port now
+    (a probe socket bound as gRPC binds, with SO_REUSEADDR, then closed). gRPC would only
+    say that it failed to bind, not which of the two is wrong."""
+    bare = host[1:-1] if host.startswith("[") and host.endswith("]") else host
+    try:
+        infos = socket.getaddrinfo(bare, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
+    except (OSError, UnicodeError) as err:
+        reason = getattr(err, "strerror", None) or str(err)
+        raise ConfigError(f"--host {host}: not an address to listen on ({reason})") from err
+    family, kind, proto, _, address = infos[0]
+    with socket.socket(family, kind, proto) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind(address)
+        except OSError as err:
+            if err.errno in (errno.EADDRINUSE, errno.EACCES):
+                raise ConfigError(
+                    f"--port {port}: cannot listen on {host}:{port} ({err.strerror})"
+                ) from err
+            raise ConfigError(f"--host {host}: cannot listen there ({err.strerror})") from err

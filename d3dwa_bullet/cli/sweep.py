@@ -18,6 +18,7 @@ from d3dwa_bullet.cli.options import (
     list_arg,
     load_cli_world,
     policy_arg,
+    seed_arg,
     split_list,
     time_limit_arg,
     workers_arg,
@@ -78,6 +79,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     # refusal comes at once (evaluation.sweep_settings is pure).
     check_address(args.ray)
     workers = workers_arg(args)
+    seed_arg(args.seed)
     settings = SweepSettings(
         methods=tuple(list_arg(args.methods, "--methods", default_methods)),
         worlds=tuple(split_list(args.worlds) if args.worlds is not None else SHIPPED_WORLDS),

@@ -24,6 +24,7 @@ from d3dwa_bullet.cli.options import (
     load_cli_world,
     parse_floats,
     recovery_arg,
+    seed_arg,
     time_limit_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
@@ -230,6 +231,7 @@ def run_record(
     extra = {}
     if time_limit_arg(getattr(args, "time_limit", None)) is not None:
         extra["time_limit"] = args.time_limit
+    seed_arg(args.seed)
     recovery = recovery_arg(args, SimParams().control_period)
     if recovery is not None:
         # start-up cost: d3dwa_bullet.episode imports pybullet, needed only to record

@@ -23,7 +23,9 @@ as the client expects (``set_robot_velocity`` then enables it and sends again). 
 ``lockstep`` mode each accepted command runs one control period and takes the next snapshot,
 so a run is deterministic whatever the wall clock does; in ``realtime`` mode a thread steps
 physics at the control rate with the newest command, and a command older than
-``COMMAND_TIMEOUT_S`` counts as a stop (a silent client cannot drive the robot on).
+``COMMAND_TIMEOUT_S`` counts as a stop (a silent client cannot drive the robot on). A
+command that is not finite (NaN, inf) is an ``INVALID_ARGUMENT`` error and changes nothing:
+every client shares this robot, so no client's input may break it for the others.
 """
 
 from __future__ import annotations
@@ -66,6 +68,11 @@ COMMAND_TIMEOUT_S = 0.3
 MAP_RESOLUTION = 0.05
 """Cell size of the served map, m."""
 _MAX_POLL_S = 1.0  # longest a cursor request waits for a new snapshot
+_WORKERS = 16
+"""Threads answering calls (start_server)."""
+_MAX_WAITERS = _WORKERS // 2
+"""Calls that may wait for the next snapshot at once: the other workers stay free for plain
+reads and commands, whatever number of clients wait."""
 
 
 class SimulatedKachaka(KachakaApiServicer):
@@ -101,6 +108,8 @@ class SimulatedKachaka(KachakaApiServicer):
             world, sim=config.sim, limits=config.planner.limits, lidar=config.lidar, noise=noise
         )
         self._cond = threading.Condition()
+        self._waiters = threading.BoundedSemaphore(_MAX_WAITERS)
+        self._published: tuple[dict[str, Any], int] = ({}, 0)  # messages, cursor: one object
         self.cursor = 0
         """Snapshots taken so far (the cursor of the newest)."""
         self.truth: list[tuple[float, float, float]] = []
@@ -146,8 +155,8 @@ class SimulatedKachaka(KachakaApiServicer):
         }
         with self._cond:
             self.truth.append(true)
-            self._messages = messages
             self.cursor += 1
+            self._published = (messages, self.cursor)  # what reads answer, swapped whole
             self._cond.notify_all()
 
     def _step(self, v: float, w: float) -> None:
@@ -196,13 +205,23 @@ class SimulatedKachaka(KachakaApiServicer):
 
     # -- the service -----------------------------------------------------------------------
     def _newest(self, request: Any, context: grpc.ServicerContext) -> tuple[dict, Any]:
-        with self._cond:
-            cursor = request.metadata.cursor
-            if cursor and cursor == self.cursor:  # the client has this one: wait for the next
+        """The newest snapshot; a request carrying its cursor waits for the next one. A plain
+        read takes no lock (it never waits behind a physics step or a waiter), and a waiter
+        past ``_MAX_WAITERS`` is answered at once, as a wait that saw no new snapshot."""
+        messages, newest = self._published
+        cursor = request.metadata.cursor
+        if cursor and cursor == newest and self._waiters.acquire(blocking=False):
+            try:
                 remaining = context.time_remaining()
                 wait = _MAX_POLL_S if remaining is None else min(_MAX_POLL_S, remaining)
-                self._cond.wait_for(lambda: self.cursor != cursor, timeout=max(wait, 0.0))
-            return self._messages, pb2.Metadata(cursor=self.cursor)
+                with self._cond:
+                    self._cond.wait_for(
+                        lambda: self._published[1] != cursor, timeout=max(wait, 0.0)
+                    )
+            finally:
+                self._waiters.release()
+            messages, newest = self._published
+        return messages, pb2.Metadata(cursor=newest)
 
     def GetRobotVersion(self, request, context):  # noqa: N802 - the service's method names
         return pb2.GetRobotVersionResponse(version=self.version)
@@ -245,6 +264,16 @@ class SimulatedKachaka(KachakaApiServicer):
 
     def SetRobotVelocity(self, request, context):  # noqa: N802
         v, w = command_of(request, context.invocation_metadata())
+        if not (math.isfinite(v) and math.isfinite(w)):
+            # one client's NaN must not break the robot every client shares: refused, and
+            # the robot keeps the last accepted command
+            with self._cond:
+                self.requests.append((v, w, False))
+            context.abort(
+                grpc.StatusCode.INVALID_ARGUMENT,
+                f"velocity must be finite, got linear {request.linear!r}, "
+                f"angular {request.angular!r}",
+            )
         with self._cond:
             self.requests.append((v, w, self.manual_control))
             if not self.manual_control:
@@ -263,7 +292,7 @@ def start_server(
     """Serve on host:port (0: a free port); returns (server, the port bound). ConfigError if
     the port cannot be bound (in use, or not allowed)."""
     server = grpc.server(
-        ThreadPoolExecutor(max_workers=8, thread_name_prefix="kachaka-api"),
+        ThreadPoolExecutor(max_workers=_WORKERS, thread_name_prefix="kachaka-api"),
         options=[("grpc.so_reuseport", 0)],  # a busy port is refused, not shared
     )
     add_KachakaApiServicer_to_server(servicer, server)

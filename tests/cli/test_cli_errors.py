@@ -309,6 +309,26 @@ def test_a_time_limit_that_is_not_positive_and_finite_is_refused(tmp_path, capsy
     assert "--time-limit" in line and not (tmp_path / "bag").exists()
 
 
+@pytest.mark.parametrize("seed", ["-1", str(2**32)])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["serve", "--world", "R1", "--noise", "real", "--port", "0"],
+        ["run", "--world", "R1", "--method", "dwa1", "--noise", "real"],
+        ["record", "--world", "R1", "--method", "dwa1", "--noise", "real", "--out", "BAG"],
+        ["eval", "--worlds", "R1", "--methods", "dwa1", "--noise", "real", "--out", "OUT"],
+        ["sweep", "--methods", "dwa1", "--out", "OUT"],
+    ],
+    ids=lambda argv: argv[0],
+)
+def test_a_seed_numpy_cannot_take_is_one_line(tmp_path, capsys, no_episode, argv, seed):
+    """A negative --seed ended numpy's seeding of the noise in a traceback."""
+    paths = {"BAG": str(tmp_path / "bag"), "OUT": str(tmp_path / "out")}
+    line = refused(capsys, *(paths.get(a, a) for a in argv), "--seed", seed)
+    assert line.startswith("d3dwa: error: --seed") and seed in line
+    assert not (tmp_path / "bag").exists() and not (tmp_path / "out").exists()
+
+
 @pytest.mark.parametrize(
     ("option", "value", "message"),
     [

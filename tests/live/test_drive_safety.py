@@ -30,11 +30,12 @@ class FrozenScan(SimulatedKachaka):
     freeze_after = 5
 
     def GetRosLaserScan(self, request, context):  # noqa: N802
+        messages = self._published[0]  # the newest snapshot's messages, as reads get them
         if self.cursor > self.freeze_after:
             with self._cond:
-                self._messages["scan"] = self._frozen
+                messages["scan"] = self._frozen
         else:
-            self._frozen = self._messages["scan"]
+            self._frozen = messages["scan"]
         return super().GetRosLaserScan(request, context)
 
 
