@@ -145,3 +145,22 @@ def test_a_controller_built_by_hand_is_not_uniform():
     controller = Controller("mine", actions=ACTIONS_FULL, policy=lambda obs: 42)
     controller.reset(0)
     assert controller(OBS) == (42, ACTIONS_FULL.decode(42))
+
+
+def test_a_held_controller_chooses_every_k_steps_and_a_reset_ends_the_hold():
+    """A policy trained with decision_steps k (beyond the paper) is asked every k steps."""
+    calls = []
+
+    def policy(obs):
+        calls.append(float(obs[0]))
+        return len(calls) % ACTIONS_FULL.size
+
+    held = Controller("d3dwa", policy=policy, actions=ACTIONS_FULL, hold=3)
+    held.reset(0)
+    indices = [held(np.full(12, float(t)))[0] for t in range(7)]
+    assert indices == [1, 1, 1, 2, 2, 2, 3]
+    assert calls == [0.0, 3.0, 6.0]  # asked at steps 0, 3, 6 only
+    held.reset(1)  # a new episode asks at once
+    assert held(np.full(12, 9.0))[0] == 4 and calls[-1] == 9.0
+    plain = Controller("d3dwa", policy=policy, actions=ACTIONS_FULL)
+    assert [plain(np.zeros(12))[0] for _ in range(2)] == [5, 6]

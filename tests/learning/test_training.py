@@ -343,3 +343,23 @@ def test_adaptive_curriculum_weights_follow_the_failure_rates() -> None:
     again = Curriculum("adaptive", window=2, floor=0.25)
     again.load(curriculum.to_dict())
     assert again.weights(["a", "b", "c"]) == [0.25, 1.25, 1.25]
+
+
+def test_a_decision_period_run_counts_decisions_and_its_policy_holds(
+    tiny: str, tmp_path: Path
+) -> None:
+    """Beyond the paper: decision_steps 3 makes one env step three control steps; the saved
+    policy says so, and the controller built from it holds each action three steps."""
+    from d3dwa_bullet.learning.agents.onnx_export import export_onnx
+    from d3dwa_bullet.methods import make_controller
+
+    out = tmp_path / "run"
+    summary = train(_config(tiny, total_steps=60, decision_steps=3), out, progress=False)
+    assert summary["env_steps"] == 60
+    assert load_train_config(out / "config.json").decision_steps == 3
+    _, meta = load_checkpoint(out / "policy")
+    assert meta["metadata"]["decision_steps"] == 3
+    controller = make_controller("d3dwa", policy_path=out / "policy")
+    assert controller.hold == 3 and "every 3 control steps" in controller.source
+    with pytest.raises(CheckpointError, match="decision_steps 3"):
+        export_onnx(out / "policy", tmp_path / "p.onnx")

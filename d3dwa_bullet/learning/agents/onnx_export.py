@@ -181,6 +181,11 @@ def export_onnx(
             f"{root}: observation layout {list(agent.obs_layout)} is none of the known kinds "
             "(paper, progress); no controller could feed it"
         )
+    if int((meta.get("metadata") or {}).get("decision_steps", 1)) > 1:
+        raise CheckpointError(
+            f"{root}: trained with decision_steps {meta['metadata']['decision_steps']} (beyond "
+            "the paper); an ONNX file does not carry a decision period yet, so it is not exported"
+        )
     method = method or str(meta["method"])
     network = agent.online.eval()
     model = onnx_model(network, metadata_props(method, kind, agent.actions, _source(root, meta)))
