@@ -90,8 +90,50 @@ def summarise(variants: list[Path]) -> list[dict[str, Any]]:
     for v in (v for v in variants if v.is_dir()):
         seeds = seed_dirs(v)
         runs = [seed_summary(p) for p in seeds.values() if (p / "metrics.jsonl").exists()]
-        out.append({"variant": v.name, "seeds": runs})
+        changes = (
+            yaml.safe_load((v / "variant.yaml").read_text())
+            if (v / "variant.yaml").exists()
+            else {}
+        )
+        out.append({"variant": v.name, "changes": changes or {}, "seeds": runs})
     return out
+
+
+def _flat(changes: dict[str, Any], prefix: str = "") -> list[str]:
+    out = []
+    for k, val in changes.items():
+        if isinstance(val, dict):
+            out += _flat(val, f"{prefix}{k}.")
+        else:
+            out.append(f"{prefix}{k} {val}")
+    return out
+
+
+def markdown(summary: list[dict[str, Any]]) -> str:
+    """One row per seed of every variant: what changed, Q taken over time, the final greedy
+    evaluation's success and value calibration."""
+    lines = [
+        "| variant | changed (from the config) | seed | Q taken at 3k / 12k / 24k / 40k "
+        "| final: success | mean Q | discounted return | ratio | tracks? |",
+        "|---|---|---:|---|---:|---:|---:|---:|---|",
+    ]
+    for v in summary:
+        changed = ", ".join(_flat(v["changes"])) or "none (as configured)"
+        for s in v["seeds"]:
+            q = " / ".join(f"{x:.2f}" for x in s["q_taken"].values()) or "--"
+            e = s["evals"][-1] if s["evals"] else None
+            if e is None:
+                lines.append(
+                    f"| {v['variant']} | {changed} | {Path(s['run']).name} | {q} | -- | | | | |"
+                )
+                continue
+            ratio = "--" if e["ratio"] is None else f"{e['ratio']:.2f}"
+            lines.append(
+                f"| {v['variant']} | {changed} | {Path(s['run']).name} | {q} | {e['success']:.2f} "
+                f"(step {e['step']}) | {e['mean_q']:.3f} | {e['discounted_return']:.3f} | {ratio} "
+                f"| {'yes' if e['calibrated'] else 'no'} |"
+            )
+    return "\n".join(lines)
 
 
 def describe(summary: list[dict[str, Any]]) -> str:
@@ -122,11 +164,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--resume", action="store_true")
     ap.add_argument("--summarise", nargs="+", type=Path, metavar="VARIANT_DIR")
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--markdown", action="store_true", help="with --summarise: one table")
     args = ap.parse_args(argv)
     try:
         if args.summarise:
             summary = summarise(args.summarise)
-            print(json.dumps(summary, indent=1) if args.json else describe(summary))
+            if args.markdown:
+                print(markdown(summary))
+            else:
+                print(json.dumps(summary, indent=1) if args.json else describe(summary))
             return 0
         if args.out is None or args.steps < 1 or args.eval_every < 1:
             ap.error("--out is required, --steps and --eval-every must be >= 1")
