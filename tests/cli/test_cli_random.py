@@ -71,7 +71,7 @@ def test_export_says_random_has_no_policy(tmp_path, capsys):
 def test_a_negative_seed_is_refused_naming_it(one_second_world, capsys):
     line = refused(capsys, "run", "--world", one_second_world, "--method", "random",
                    "--seed", "-1")  # fmt: skip
-    assert "--seed -1" in line and "'random'" in line
+    assert "--seed" in line and "-1" in line  # refused by the CLI's seed check, before any episode
 
 
 def test_the_default_methods_put_random_after_the_fixed_dwas():
