@@ -76,7 +76,8 @@ def save_latest(
     """Redraw the learning curve and save the resumable ``checkpoints/latest``."""
     check_finite(agent, out, progress.env_steps)
     learning_curve(out, out / CURVE_FILE,
-                   f"{config.method}: {progress.env_steps} steps, seed {config.seed}")  # fmt: skip
+                   f"{config.method}: {progress.env_steps} steps, seed {config.seed}",
+                   step_seconds=0.1 * config.decision_steps)  # fmt: skip
     files: dict[str, Any] = dict(training_state_files(agent, progress.to_dict(logs.sizes())))
     files[CONFIG_FILE] = config_bytes(config)
     files[CURVE_FILE] = out / CURVE_FILE

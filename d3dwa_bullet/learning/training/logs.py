@@ -198,7 +198,10 @@ def _rolling(values: np.ndarray, window: int) -> np.ndarray:
 
 
 def learning_curve(
-    out: str | os.PathLike[str], path: str | os.PathLike[str], title: str = ""
+    out: str | os.PathLike[str],
+    path: str | os.PathLike[str],
+    title: str = "",
+    step_seconds: float = 0.1,
 ) -> Path:
     """Return and success rate vs env steps (training rolling means + greedy evaluations),
     and the greedy evaluations' value calibration: mean Q of the pairs they visited against
@@ -236,7 +239,7 @@ def learning_curve(
     ax2.set_ylabel("success rate")
     ax2.set_ylim(-0.05, 1.05)
     ax3.set_ylabel("greedy evaluation value")
-    ax3.set_xlabel("environment steps (0.1 s each)")
+    ax3.set_xlabel(f"environment steps ({step_seconds:g} s each)")
     for ax in (ax1, ax2, ax3):
         ax.grid(True, alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
