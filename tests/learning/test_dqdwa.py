@@ -129,7 +129,7 @@ def test_update_rejects_out_of_range() -> None:
 
 
 def test_learn_discretises_and_act_is_greedy() -> None:
-    agent = DQDWAAgent(config=DQDWAConfig(alpha=0.5, gamma=0.0, eps_start=0.0, eps_end=0.0))
+    agent = DQDWAAgent(config=DQDWAConfig(alpha=0.5, gamma=0.5, eps_start=0.0, eps_end=0.0))
     obs, obs2 = make_obs(0.0), make_obs(-90.0, {0: 0.3})
     logs = agent.learn(Transition(obs, 6, 10.0, obs2, False))
     s = agent.state_index(obs)

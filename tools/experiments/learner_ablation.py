@@ -23,10 +23,11 @@ from typing import Any
 
 import yaml
 
-from d3dwa_bullet.errors import D3DWAError
+from d3dwa_bullet.errors import ConfigError, D3DWAError
 from d3dwa_bullet.learning.training import load_train_config, read_metrics, train
 from d3dwa_bullet.learning.training.config import TrainConfig
 from d3dwa_bullet.learning.value_calibration import ValueCalibration
+from d3dwa_bullet.loading import load_yaml, parse_yaml
 from d3dwa_bullet.seed_dirs import seed_dirs
 
 
@@ -41,7 +42,7 @@ def parse_set(items: list[str]) -> dict[str, Any]:
         *parents, leaf = key.split(".")
         for p in parents:
             node = node.setdefault(p, {})
-        node[leaf] = yaml.safe_load(raw)
+        node[leaf] = parse_yaml(raw, ConfigError, f"--set {item}")
     return out
 
 
@@ -91,9 +92,7 @@ def summarise(variants: list[Path]) -> list[dict[str, Any]]:
         seeds = seed_dirs(v)
         runs = [seed_summary(p) for p in seeds.values() if (p / "metrics.jsonl").exists()]
         changes = (
-            yaml.safe_load((v / "variant.yaml").read_text())
-            if (v / "variant.yaml").exists()
-            else {}
+            load_yaml(v / "variant.yaml", ConfigError) if (v / "variant.yaml").exists() else {}
         )
         out.append({"variant": v.name, "changes": changes or {}, "seeds": runs})
     return out

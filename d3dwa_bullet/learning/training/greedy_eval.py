@@ -31,7 +31,7 @@ from d3dwa_bullet.learning.value_calibration import calibrate
 @dataclass
 class GreedyEpisode:
     """One greedy episode as the learner saw it: the observations it acted on, the actions
-    it took and the rewards it earned, step by step, and the env's last info."""
+    it took and the rewards it earned, one entry per decision (an env step)."""
 
     world: str
     outcome: str
