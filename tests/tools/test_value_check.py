@@ -1,0 +1,34 @@
+"""tools.experiments.value_check: per-seed value calibration and seed agreement, bad input."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from d3dwa_bullet.resources import policies_dir
+from tools.experiments import value_check
+
+
+def test_a_directory_without_policies_is_one_line_and_status_2(tmp_path: Path, capsys) -> None:
+    (tmp_path / "seed-0").mkdir()  # a seed folder without meta.json is no policy either
+    assert value_check.main([str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(tmp_path) in err[0] and "no policy" in err[0]
+
+
+def test_two_seeds_get_a_calibration_each_and_an_agreement(tmp_path: Path, monkeypatch) -> None:
+    for k in (0, 1):
+        shutil.copytree(policies_dir() / "d3dwa" / f"seed-{k}", tmp_path / f"seed-{k}")
+    monkeypatch.setattr(value_check, "WORLDS", ("R1",))
+    result = value_check.check(tmp_path)
+    assert [s["policy"] for s in result["seeds"]] == ["seed-0", "seed-1"]
+    for s in result["seeds"]:
+        assert s["gamma"] == pytest.approx(0.997) and s["pairs"] > 0
+        assert s["mean_return"] <= 0.5 + 0.001 * s["pairs"]  # no episode earns more
+        assert s["calibrated"] is False  # the shipped seeds' values diverged (issue 29)
+    assert result["agreement_pairs"] == 1 and 0.0 <= result["agreement"] <= 1.0
+    assert result["chance"] == pytest.approx(0.01)
+    assert "does NOT" not in value_check.describe(result)  # the table says NO, not prose
+    assert "| seed-1 |" in value_check.describe(result)
