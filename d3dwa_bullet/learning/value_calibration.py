@@ -119,3 +119,29 @@ def calibrate(
     if not len(q_all):
         raise ValueError("calibrate: the episodes have no steps")
     return ValueCalibration(float(q_all.mean()), float(g_all.mean()), len(q_all), len(qs))
+
+
+def calibrate_by_outcome(
+    q_taken: Sequence[Sequence[float] | np.ndarray],
+    rewards: Sequence[Sequence[float] | np.ndarray],
+    outcomes: Sequence[str],
+    gamma: float,
+) -> dict[str, ValueCalibration]:
+    """Where do the values miss? ``calibrate`` over the episodes that reached the goal
+    ("goal") and over the rest ("not goal"), each key present only when it has episodes.
+
+    A learner can track the returns of the paths it finishes and still value a stall (an
+    episode that ends at the time limit) as if the goal were near; the pooled figure hides
+    which (docs/design.md#value-calibration).
+    """
+    if len(outcomes) != len(q_taken):
+        raise ValueError(
+            f"calibrate_by_outcome: {len(outcomes)} outcomes for {len(q_taken)} episodes"
+        )
+    groups: dict[str, list[int]] = {}
+    for i, outcome in enumerate(outcomes):
+        groups.setdefault("goal" if outcome == "goal" else "not goal", []).append(i)
+    return {
+        name: calibrate([q_taken[i] for i in idx], [rewards[i] for i in idx], gamma)
+        for name, idx in sorted(groups.items())
+    }

@@ -8,6 +8,7 @@ import pytest
 from d3dwa_bullet.learning.value_calibration import (
     ValueCalibration,
     calibrate,
+    calibrate_by_outcome,
     discounted_returns,
 )
 
@@ -50,6 +51,22 @@ def test_the_rule(mean_q: float, mean_return: float, judged_by: str, calibrated:
     assert cal.judged_by == judged_by
     assert cal.calibrated is calibrated
     assert ("does NOT" in cal.describe()) is (not calibrated)
+
+
+def test_by_outcome_separates_a_stall_from_the_paths_that_finish() -> None:
+    # a finished path valued right, and a stall valued as if the goal were near
+    q = [[0.45, 0.5], [0.4, 0.4, 0.4]]
+    r = [[0.0, 0.5], [-0.01, -0.01, -0.01]]
+    by = calibrate_by_outcome(q, r, ["goal", "timeout"], 0.9)
+    assert list(by) == ["goal", "not goal"]
+    assert by["goal"].calibrated and by["goal"].episodes == 1
+    assert not by["not goal"].calibrated and by["not goal"].pairs == 3
+    assert by["not goal"].gap == pytest.approx(0.4 - np.mean([-0.0271, -0.019, -0.01]))
+    assert not calibrate(q, r, 0.9).calibrated  # pooled, the stall hides the paths
+    only_goals = calibrate_by_outcome(q[:1], r[:1], ["goal"], 0.9)
+    assert list(only_goals) == ["goal"]
+    with pytest.raises(ValueError, match="outcomes"):
+        calibrate_by_outcome(q, r, ["goal"], 0.9)
 
 
 def test_calibrate_refuses_mismatched_lengths() -> None:

@@ -28,7 +28,12 @@ def test_two_seeds_get_a_calibration_each_and_an_agreement(tmp_path: Path, monke
         assert s["gamma"] == pytest.approx(0.997) and s["pairs"] > 0
         assert s["mean_return"] <= 0.5 + 0.001 * s["pairs"]  # no episode earns more
         assert s["calibrated"] is False  # the shipped seeds' values diverged (issue 29)
+        groups = s["by_outcome"]  # the one episode sits in the group of its outcome
+        expected = "goal" if s["outcomes"]["R1"] == "goal" else "not goal"
+        assert list(groups) == [expected] and groups[expected]["pairs"] == s["pairs"]
+        assert groups[expected]["mean_q"] == pytest.approx(s["mean_q"])
     assert result["agreement_pairs"] == 1 and 0.0 <= result["agreement"] <= 1.0
     assert result["chance"] == pytest.approx(0.01)
     assert "does NOT" not in value_check.describe(result)  # the table says NO, not prose
     assert "| seed-1 |" in value_check.describe(result)
+    assert "| seed-1 | 1 " in value_check.describe(result)  # the split by outcome

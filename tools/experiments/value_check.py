@@ -8,7 +8,9 @@ generated layouts (generator seeds 2^31 + 1000, never drawn in training or by th
 first layouts), scored by the training env's own reward at the seed's ``reward_scale``. Per seed
 it prints the value calibration (docs/design.md#value-calibration): the mean Q(s, a) of the
 visited pairs against the discounted return they earned, at the seed's own gamma, with the
-ratio (or, where the mean return is under 0.1 in magnitude, the gap) and the verdict. Then,
+ratio (or, where the mean return is under 0.1 in magnitude, the gap) and the verdict, pooled
+and split into the episodes that reached the goal and the rest (a stall valued as if the goal
+were near shows there). Then,
 over every state any seed visited, how often two seeds pick the same greedy action (chance is
 1 / |actions| for unrelated choosers), and the median gap between a state's best and second
 best Q. Nothing is selected by it: it is a diagnostic, not a checkpoint rule.
@@ -33,7 +35,7 @@ from d3dwa_bullet.learning.agents.policy import greedy_policy, taken_q_values
 from d3dwa_bullet.learning.training import load_train_config
 from d3dwa_bullet.learning.training.config import make_env
 from d3dwa_bullet.learning.training.greedy_eval import GreedyEpisode, greedy_episode
-from d3dwa_bullet.learning.value_calibration import calibrate
+from d3dwa_bullet.learning.value_calibration import calibrate, calibrate_by_outcome
 from d3dwa_bullet.seed_dirs import seed_dirs
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
 
@@ -88,16 +90,18 @@ def check(path: Path) -> dict[str, Any]:
     for label, (agent, config) in agents.items():
         print(f"value_check: {label}: {len(WORLDS)} greedy episodes", file=sys.stderr)
         eps = episodes_of(agent, config)
-        cal = calibrate(
-            [taken_q_values(agent, e.obs, e.actions) for e in eps],
-            [e.rewards for e in eps],
-            agent.config.gamma,
+        q_taken = [taken_q_values(agent, e.obs, e.actions) for e in eps]
+        cal = calibrate(q_taken, [e.rewards for e in eps], agent.config.gamma)
+        by_outcome = calibrate_by_outcome(
+            q_taken, [e.rewards for e in eps], [e.outcome for e in eps], agent.config.gamma
         )
         states.append(np.concatenate([e.obs for e in eps]))
         seeds.append({
             "policy": label, "gamma": agent.config.gamma,
             "outcomes": {e.world: e.outcome for e in eps}, **cal.to_dict(),
             "judged_by": cal.judged_by,
+            "by_outcome": {k: {**c.to_dict(), "judged_by": c.judged_by}
+                           for k, c in by_outcome.items()},
         })  # fmt: skip
     visited = np.concatenate(states)
     tables = {label: q_table(agent, visited) for label, (agent, _) in agents.items()}
@@ -136,6 +140,21 @@ def describe(result: dict[str, Any]) -> str:
             f"| {'yes' if s['calibrated'] else 'NO'} ({s['judged_by']}) "
             f"| {result['median_best_gap'][s['policy']]:.4f} |"
         )
+    lines += [
+        "",
+        "where the values miss: the same figures over the episodes that reached the goal and "
+        "over the rest",
+        "| policy | episodes | mean Q | discounted return | ratio | gap | tracks? |",
+        "|---|---|---:|---:|---:|---:|---|",
+    ]
+    for s in result["seeds"]:
+        for group, c in s["by_outcome"].items():
+            ratio = "--" if c["ratio"] is None else f"{c['ratio']:.2f}"
+            lines.append(
+                f"| {s['policy']} | {c['episodes']} {group} | {c['mean_q']:.3f} "
+                f"| {c['mean_return']:.3f} | {ratio} | {c['gap']:+.3f} "
+                f"| {'yes' if c['calibrated'] else 'NO'} ({c['judged_by']}) |"
+            )
     if result["agreement"] is not None:
         lines.append(
             f"greedy-action agreement over {result['agreement_pairs']} seed pairs on "
