@@ -32,8 +32,12 @@ def test_two_seeds_get_a_calibration_each_and_an_agreement(tmp_path: Path, monke
         expected = "goal" if s["outcomes"]["R1"] == "goal" else "not goal"
         assert list(groups) == [expected] and groups[expected]["pairs"] == s["pairs"]
         assert groups[expected]["mean_q"] == pytest.approx(s["mean_q"])
+        (episode,) = s["episodes_detail"]  # one world, one episode: its figures are the seed's
+        assert episode["decisions"] == s["pairs"] and episode["world"] == "R1"
+        assert episode["mean_return"] == pytest.approx(s["mean_return"])
     assert result["agreement_pairs"] == 1 and 0.0 <= result["agreement"] <= 1.0
     assert result["chance"] == pytest.approx(0.01)
     assert "does NOT" not in value_check.describe(result)  # the table says NO, not prose
     assert "| seed-1 |" in value_check.describe(result)
     assert "| seed-1 | 1 " in value_check.describe(result)  # the split by outcome
+    assert "| seed-1 | R1 |" in value_check.describe_episodes(result)

@@ -2,6 +2,7 @@
 
     python -m tools.experiments.value_check policies/d3dwa            # every seed-<k>/ inside
     python -m tools.experiments.value_check runs/d3dwa/seed-0 --json  # one policy
+    python -m tools.experiments.value_check DIR --episodes            # + a row per episode
 
 Each seed's greedy policy runs one noise-free episode on each of R1-R3 and three fresh
 generated layouts (generator seeds 2^31 + 1000, never drawn in training or by the sweep's
@@ -102,6 +103,12 @@ def check(path: Path) -> dict[str, Any]:
             "judged_by": cal.judged_by,
             "by_outcome": {k: {**c.to_dict(), "judged_by": c.judged_by}
                            for k, c in by_outcome.items()},
+            "episodes_detail": [
+                {"world": e.world, "outcome": e.outcome, "seconds": e.seconds,
+                 "decisions": len(q), "mean_q": float(np.mean(q)),
+                 "mean_return": calibrate([q], [e.rewards], agent.config.gamma).mean_return}
+                for e, q in zip(eps, q_taken, strict=True)
+            ],
         })  # fmt: skip
     visited = np.concatenate(states)
     tables = {label: q_table(agent, visited) for label, (agent, _) in agents.items()}
@@ -122,6 +129,23 @@ def check(path: Path) -> dict[str, Any]:
         "chance": 1.0 / n_actions,
         "median_best_gap": gaps,
     }
+
+
+def describe_episodes(result: dict[str, Any]) -> str:
+    """One row per greedy episode: where a seed's values track and where they miss."""
+    lines = [
+        "| policy | world | outcome | s | decisions | mean Q | discounted return | ratio |",
+        "|---|---|---|---:|---:|---:|---:|---:|",
+    ]
+    for s in result["seeds"]:
+        for e in s["episodes_detail"]:
+            ratio = e["mean_q"] / e["mean_return"] if e["mean_return"] else None
+            lines.append(
+                f"| {s['policy']} | {e['world']} | {e['outcome']} | {e['seconds']:.1f} "
+                f"| {e['decisions']} | {e['mean_q']:.3f} | {e['mean_return']:.3f} "
+                f"| {'--' if ratio is None else f'{ratio:.2f}'} |"
+            )
+    return "\n".join(lines)
 
 
 def describe(result: dict[str, Any]) -> str:
@@ -168,13 +192,21 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m tools.experiments.value_check")
     ap.add_argument("directory", type=Path, help="a policy folder, or a folder of seed-<k>/")
     ap.add_argument("--json", action="store_true")
+    ap.add_argument(
+        "--episodes", action="store_true", help="also one row per greedy episode and seed"
+    )
     args = ap.parse_args(argv)
     try:
         result = check(args.directory)
     except (D3DWAError, OSError) as err:
         print(f"value_check: error: {err}", file=sys.stderr)
         return 2
-    print(json.dumps(result, indent=1) if args.json else describe(result))
+    if args.json:
+        print(json.dumps(result, indent=1))
+    else:
+        print(describe(result))
+        if args.episodes:
+            print("\n" + describe_episodes(result))
     return 0
 
 
