@@ -5,6 +5,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from d3dwa_bullet.resources import policies_dir
@@ -41,3 +42,20 @@ def test_two_seeds_get_a_calibration_each_and_an_agreement(tmp_path: Path, monke
     assert "| seed-1 |" in value_check.describe(result)
     assert "| seed-1 | 1 " in value_check.describe(result)  # the split by outcome
     assert "| seed-1 | R1 |" in value_check.describe_episodes(result)
+
+
+def test_epsilon_outside_0_1_is_one_line_and_status_2(tmp_path: Path, capsys) -> None:
+    assert value_check.main([str(tmp_path), "--epsilon", "1.5"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--epsilon" in err[0] and "1.5" in err[0]
+
+
+def test_epsilon_greedy_explores_on_its_own_seeded_stream() -> None:
+    obs = np.zeros(12)
+    always_7 = value_check.epsilon_greedy(lambda o: 7, 100, 0.0, seed=0)
+    assert {always_7(obs) for _ in range(50)} == {7}
+    explore = [value_check.epsilon_greedy(lambda o: 7, 100, 0.5, seed=3) for _ in range(2)]
+    runs = [[e(obs) for _ in range(200)] for e in explore]
+    assert runs[0] == runs[1]  # the same seed, the same choices
+    share = np.mean(np.array(runs[0]) != 7)
+    assert 0.35 < share < 0.6  # about half explore (1 % of those draw 7 again)

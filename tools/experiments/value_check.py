@@ -3,6 +3,7 @@
     python -m tools.experiments.value_check policies/d3dwa            # every seed-<k>/ inside
     python -m tools.experiments.value_check runs/d3dwa/seed-0 --json  # one policy
     python -m tools.experiments.value_check DIR --episodes            # + a row per episode
+    python -m tools.experiments.value_check DIR --epsilon 0.05        # acting as in training
 
 Each seed's greedy policy runs one noise-free episode on each of R1-R3 and three fresh
 generated layouts (generator seeds 2^31 + 1000, never drawn in training or by the sweep's
@@ -32,7 +33,7 @@ from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.learning.agents.checkpoint import META_FILE, load_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
-from d3dwa_bullet.learning.agents.policy import greedy_policy, taken_q_values
+from d3dwa_bullet.learning.agents.policy import Policy, greedy_policy, taken_q_values
 from d3dwa_bullet.learning.training import load_train_config
 from d3dwa_bullet.learning.training.config import make_env
 from d3dwa_bullet.learning.training.greedy_eval import GreedyEpisode, greedy_episode
@@ -68,9 +69,25 @@ def load(path: Path) -> tuple[D3QNAgent | DQDWAAgent, Any]:
     return agent, config  # type: ignore[return-value]
 
 
-def episodes_of(agent: D3QNAgent | DQDWAAgent, config: Any) -> list[GreedyEpisode]:
+def epsilon_greedy(policy: Policy, n_actions: int, epsilon: float, seed: int) -> Policy:
+    """``policy`` but a uniform action with probability ``epsilon`` (its own seeded stream)."""
+    rng = np.random.default_rng(seed)
+
+    def act(obs: np.ndarray) -> int:
+        if rng.random() < epsilon:
+            return int(rng.integers(n_actions))
+        return int(policy(obs))
+
+    return act
+
+
+def episodes_of(
+    agent: D3QNAgent | DQDWAAgent, config: Any, epsilon: float = 0.0
+) -> list[GreedyEpisode]:
     env = make_env(config, worlds=WORLDS, allow_eval_worlds=True)
     policy = greedy_policy(agent)
+    if epsilon:
+        policy = epsilon_greedy(policy, int(env.action_space.n), epsilon, seed=0)
     try:
         return [greedy_episode(env, policy, w, "none", 0) for w in WORLDS]
     finally:
@@ -84,13 +101,14 @@ def q_table(agent: D3QNAgent | DQDWAAgent, obs: np.ndarray) -> np.ndarray:
     return np.stack([agent.table[agent.discretisation.state_index(o)] for o in obs])
 
 
-def check(path: Path) -> dict[str, Any]:
-    """Every figure of the module docstring for one policy directory."""
+def check(path: Path, epsilon: float = 0.0) -> dict[str, Any]:
+    """Every figure of the module docstring for one policy directory (``epsilon`` > 0: the
+    episodes act epsilon-greedily instead, a diagnostic of whose returns the values follow)."""
     agents = {label: load(p) for label, p in policy_dirs(path).items()}
     seeds, states = [], []
     for label, (agent, config) in agents.items():
         print(f"value_check: {label}: {len(WORLDS)} greedy episodes", file=sys.stderr)
-        eps = episodes_of(agent, config)
+        eps = episodes_of(agent, config, epsilon)
         q_taken = [taken_q_values(agent, e.obs, e.actions) for e in eps]
         cal = calibrate(q_taken, [e.rewards for e in eps], agent.config.gamma)
         by_outcome = calibrate_by_outcome(
@@ -122,6 +140,7 @@ def check(path: Path) -> dict[str, Any]:
     return {
         "directory": str(path),
         "worlds": list(WORLDS),
+        "epsilon": epsilon,
         "seeds": seeds,
         "states": len(visited),
         "agreement": float(np.mean(pairs)) if pairs else None,
@@ -148,9 +167,15 @@ def describe_episodes(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _acting(result: dict[str, Any]) -> str:
+    eps = result.get("epsilon", 0.0)
+    return f"epsilon-greedy ({eps:g})" if eps else "greedy"
+
+
 def describe(result: dict[str, Any]) -> str:
     lines = [
-        f"{result['directory']}: greedy episodes on {', '.join(result['worlds'])}, no noise",
+        f"{result['directory']}: {_acting(result)} episodes on {', '.join(result['worlds'])}, "
+        "no noise",
         "| policy | gamma | goals | mean Q | discounted return | ratio | gap | tracks? "
         "| best - 2nd best Q (median) |",
         "|---|---:|---:|---:|---:|---:|---:|---|---:|",
@@ -195,9 +220,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--episodes", action="store_true", help="also one row per greedy episode and seed"
     )
+    ap.add_argument(
+        "--epsilon",
+        type=float,
+        default=0.0,
+        help="act epsilon-greedily (a diagnostic: do the values follow the exploring "
+        "behaviour's returns rather than the greedy policy's?); default 0, greedy",
+    )
     args = ap.parse_args(argv)
+    if not 0.0 <= args.epsilon <= 1.0:
+        print(
+            f"value_check: error: --epsilon must be in [0, 1], got {args.epsilon}", file=sys.stderr
+        )
+        return 2
     try:
-        result = check(args.directory)
+        result = check(args.directory, args.epsilon)
     except (D3DWAError, OSError) as err:
         print(f"value_check: error: {err}", file=sys.stderr)
         return 2
