@@ -24,6 +24,7 @@ from d3dwa_bullet.learning.training import (
     TrainConfig,
     Trainer,
     load_train_config,
+    make_env,
     read_episodes,
     read_metrics,
     train,
@@ -363,3 +364,17 @@ def test_a_decision_period_run_counts_decisions_and_its_policy_holds(
     assert controller.hold == 3 and "every 3 control steps" in controller.source
     with pytest.raises(CheckpointError, match="decision_steps 3"):
         export_onnx(out / "policy", tmp_path / "p.onnx")
+
+
+def test_a_recovery_run_trains_and_validates_inside_the_layer(tiny: str, tmp_path: Path) -> None:
+    """Beyond the paper: recovery 'nav2' puts the recovery layer around the agent in its
+    training envs and its greedy evaluations; config.json keeps it; 'none' is the paper's."""
+    config = _config(tiny, total_steps=30, recovery="nav2")
+    assert make_env(config).episode_config.recovery is not None
+    assert make_env(config, worlds=("R1-style-s1",)).episode_config.recovery is not None
+    assert make_env(_config(tiny, total_steps=30)).episode_config.recovery is None
+    out = tmp_path / "run"
+    train(config, out, progress=False)
+    assert load_train_config(out / "config.json").recovery == "nav2"
+    with pytest.raises(ConfigError, match="TrainConfig.recovery.*'spin'"):
+        _config(tiny, recovery="spin")

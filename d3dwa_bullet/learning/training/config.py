@@ -24,7 +24,7 @@ from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, resolve_world
 from d3dwa_bullet.limits import MAX_TOTAL_STEPS, check_processes, check_weights
 from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.methods import LEARNED, method_observation
-from d3dwa_bullet.params import RewardParams
+from d3dwa_bullet.params import RECOVERY_KINDS, RewardParams, recovery_params
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.progress import check_observation_kind, observation_layout
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
@@ -92,6 +92,11 @@ class TrainConfig:
     default (docs/design.md#decision-period): with k > 1 an env step, ``total_steps``,
     ``eval_every``, ``checkpoint_every`` and the agent's gamma count decisions of k control
     steps, so a budget of N control steps is ``total_steps: N / k``."""
+    recovery: str = "none"
+    """The recovery layer around the agent in training and in its greedy evaluations: 'none'
+    (the paper's stack) or 'nav2' (docs/design.md#recovery; while it recovers the chosen
+    action is not used). Beyond the paper, off by default: a policy trained so is meant to be
+    evaluated with ``--recovery nav2``, as every method beside it."""
     weights: tuple[float, ...] | None = None
     """Weight candidates W; None: the method's action set."""
     horizons: tuple[float, ...] | None = None
@@ -192,6 +197,7 @@ class TrainConfig:
                 "a whole number >= 1 (0: one per core)",
             ),
             ("vector", self.vector in VECTOR_MODES, f"one of {VECTOR_MODES}"),
+            ("recovery", self.recovery in RECOVERY_KINDS, f"one of {RECOVERY_KINDS}"),
             ("noise", bool(self.noise), "non-empty ('none' for noise-free)"),
         ]
         for name, ok, rule in checks:
@@ -371,6 +377,7 @@ def make_env(
             actions=config.actions,
             reward_params=config.reward_params,
             observation=str(config.observation),
+            recovery=recovery_params(config.recovery),
         )
     return D3DWAEnv(
         worlds=config.worlds,
@@ -384,6 +391,7 @@ def make_env(
         route_start_span=config.route_start_span,
         observation=str(config.observation),
         decision_steps=config.decision_steps,
+        recovery=recovery_params(config.recovery),
     )
 
 
