@@ -1,6 +1,7 @@
 """The `random` reference at a decision period: does a policy beat chance at its own rate?
 
     python -m tools.experiments.random_hold --hold 10 --seeds 0,1,2
+    python -m tools.experiments.random_hold --hold 10 --seeds 0,1,2 --recovery nav2
 
 A uniform chooser over the 100 (weights, tau) actions (the `random` method's controller, its
 own stream of the episode seed) that keeps each draw for ``--hold`` control steps, run once
@@ -15,9 +16,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import replace
 
 from d3dwa_bullet.episode import run_episode
+from d3dwa_bullet.episode_config import EpisodeConfig
+from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.methods import REFERENCE, Controller
+from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
 from d3dwa_bullet.world.registry import load_world
 
@@ -34,6 +39,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m tools.experiments.random_hold")
     ap.add_argument("--hold", type=int, default=1, help="control steps each draw is kept")
     ap.add_argument("--seeds", default="0", help="episode seeds, e.g. 0,1,2")
+    ap.add_argument(
+        "--recovery",
+        default="none",
+        help="none (the paper's stack) or nav2 (docs/design.md#recovery)",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     try:
@@ -44,6 +54,11 @@ def main(argv: list[str] | None = None) -> int:
     if not 1 <= args.hold <= 100 or min(seeds) < 0:
         print("random_hold: error: --hold must be in [1, 100] and seeds >= 0", file=sys.stderr)
         return 2
+    try:
+        config = replace(EpisodeConfig(), recovery=recovery_params(args.recovery))
+    except ConfigError as err:
+        print(f"random_hold: error: --recovery: {err}", file=sys.stderr)
+        return 2
     worlds = layouts()
     goals = {}
     for seed in seeds:
@@ -52,15 +67,27 @@ def main(argv: list[str] | None = None) -> int:
             controller = Controller(
                 "random", actions=REFERENCE["random"], uniform=True, hold=args.hold
             )
-            n += run_episode(world, controller, seed).outcome == "goal"
+            n += run_episode(world, controller, seed, config=config).outcome == "goal"
         goals[seed] = n
         if not args.json:
-            print(f"hold {args.hold}, episode seed {seed}: {n}/{len(worlds)} goals", flush=True)
+            print(
+                f"hold {args.hold}, recovery {args.recovery}, episode seed {seed}: "
+                f"{n}/{len(worlds)} goals",
+                flush=True,
+            )
     total = sum(goals.values())
     rate = total / (len(worlds) * len(seeds))
     if args.json:
         print(
-            json.dumps({"hold": args.hold, "layouts": len(worlds), "goals": goals, "success": rate})
+            json.dumps(
+                {
+                    "hold": args.hold,
+                    "recovery": args.recovery,
+                    "layouts": len(worlds),
+                    "goals": goals,
+                    "success": rate,
+                }
+            )  # fmt: skip
         )
     else:
         print(f"hold {args.hold}: {total}/{len(worlds) * len(seeds)} goals ({rate:.2f})")
