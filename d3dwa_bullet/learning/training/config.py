@@ -93,10 +93,8 @@ class TrainConfig:
     ``eval_every``, ``checkpoint_every`` and the agent's gamma count decisions of k control
     steps, so a budget of N control steps is ``total_steps: N / k``."""
     recovery: str = "none"
-    """The recovery layer around the agent in training and in its greedy evaluations: 'none'
-    (the paper's stack) or 'nav2' (docs/design.md#recovery; while it recovers the chosen
-    action is not used). Beyond the paper, off by default: a policy trained so is meant to be
-    evaluated with ``--recovery nav2``, as every method beside it."""
+    """Recovery layer in training and greedy evaluation: 'none' (the paper's) or 'nav2'
+    (beyond the paper: evaluate such a policy with ``--recovery nav2``; design.md#recovery)."""
     weights: tuple[float, ...] | None = None
     """Weight candidates W; None: the method's action set."""
     horizons: tuple[float, ...] | None = None
