@@ -48,10 +48,12 @@ def branches(
     try:
         obs0, info0 = branch_point()
         q0 = q_table(agent, obs0[None])[0]
-        rows = []
-        for a in range(len(q0)) if actions is None else actions:
+        tried = list(range(len(q0))) if actions is None else actions
+        for a in tried:  # all checked before any branch is replayed
             if not 0 <= a < len(q0):
                 raise D3DWAError(f"--actions: {a} is not an action index 0..{len(q0) - 1}")
+        rows = []
+        for a in tried:
             obs, info = branch_point()
             outcome = None
             for k in range(hold + then):

@@ -87,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
                     "goals": goals,
                     "success": rate,
                 }
-            )  # fmt: skip
+            )
         )
     else:
         print(f"hold {args.hold}: {total}/{len(worlds) * len(seeds)} goals ({rate:.2f})")

@@ -109,11 +109,11 @@ def check(path: Path, epsilon: float = 0.0) -> dict[str, Any]:
     for label, (agent, config) in agents.items():
         print(f"value_check: {label}: {len(WORLDS)} greedy episodes", file=sys.stderr)
         eps = episodes_of(agent, config, epsilon)
+        gamma = agent.config.gamma
         q_taken = [taken_q_values(agent, e.obs, e.actions) for e in eps]
-        cal = calibrate(q_taken, [e.rewards for e in eps], agent.config.gamma)
-        by_outcome = calibrate_by_outcome(
-            q_taken, [e.rewards for e in eps], [e.outcome for e in eps], agent.config.gamma
-        )
+        rewards = [e.rewards for e in eps]
+        cal = calibrate(q_taken, rewards, gamma)
+        by_outcome = calibrate_by_outcome(q_taken, rewards, [e.outcome for e in eps], gamma)
         states.append(np.concatenate([e.obs for e in eps]))
         seeds.append({
             "policy": label, "gamma": agent.config.gamma,
@@ -123,8 +123,7 @@ def check(path: Path, epsilon: float = 0.0) -> dict[str, Any]:
                            for k, c in by_outcome.items()},
             "episodes_detail": [
                 {"world": e.world, "outcome": e.outcome, "seconds": e.seconds,
-                 "decisions": len(q), "mean_q": float(np.mean(q)),
-                 "mean_return": calibrate([q], [e.rewards], agent.config.gamma).mean_return}
+                 "decisions": len(q), **calibrate([q], [e.rewards], gamma).to_dict()}
                 for e, q in zip(eps, q_taken, strict=True)
             ],
         })  # fmt: skip
@@ -158,13 +157,20 @@ def describe_episodes(result: dict[str, Any]) -> str:
     ]
     for s in result["seeds"]:
         for e in s["episodes_detail"]:
-            ratio = e["mean_q"] / e["mean_return"] if e["mean_return"] else None
             lines.append(
                 f"| {s['policy']} | {e['world']} | {e['outcome']} | {e['seconds']:.1f} "
                 f"| {e['decisions']} | {e['mean_q']:.3f} | {e['mean_return']:.3f} "
-                f"| {'--' if ratio is None else f'{ratio:.2f}'} |"
+                f"| {_ratio_text(e['ratio'])} |"
             )
     return "\n".join(lines)
+
+
+def _ratio_text(ratio: float | None) -> str:
+    return "--" if ratio is None else f"{ratio:.2f}"
+
+
+def _verdict(calibration: dict[str, Any]) -> str:
+    return f"{'yes' if calibration['calibrated'] else 'NO'} ({calibration['judged_by']})"
 
 
 def _acting(result: dict[str, Any]) -> str:
@@ -182,11 +188,10 @@ def describe(result: dict[str, Any]) -> str:
     ]
     for s in result["seeds"]:
         goals = sum(o == "goal" for o in s["outcomes"].values())
-        ratio = "--" if s["ratio"] is None else f"{s['ratio']:.2f}"
         lines.append(
             f"| {s['policy']} | {s['gamma']} | {goals}/{len(s['outcomes'])} | {s['mean_q']:.3f} "
-            f"| {s['mean_return']:.3f} | {ratio} | {s['gap']:+.3f} "
-            f"| {'yes' if s['calibrated'] else 'NO'} ({s['judged_by']}) "
+            f"| {s['mean_return']:.3f} | {_ratio_text(s['ratio'])} | {s['gap']:+.3f} "
+            f"| {_verdict(s)} "
             f"| {result['median_best_gap'][s['policy']]:.4f} |"
         )
     lines += [
@@ -198,11 +203,10 @@ def describe(result: dict[str, Any]) -> str:
     ]
     for s in result["seeds"]:
         for group, c in s["by_outcome"].items():
-            ratio = "--" if c["ratio"] is None else f"{c['ratio']:.2f}"
             lines.append(
                 f"| {s['policy']} | {c['episodes']} {group} | {c['mean_q']:.3f} "
-                f"| {c['mean_return']:.3f} | {ratio} | {c['gap']:+.3f} "
-                f"| {'yes' if c['calibrated'] else 'NO'} ({c['judged_by']}) |"
+                f"| {c['mean_return']:.3f} | {_ratio_text(c['ratio'])} | {c['gap']:+.3f} "
+                f"| {_verdict(c)} |"
             )
     if result["agreement"] is not None:
         lines.append(
