@@ -90,10 +90,13 @@ def test_two_envs_in_workers_equal_two_envs_in_process(tiny: str, tmp_path: Path
     assert _episodes(tmp_path / "one") != _episodes(tmp_path / "sync")
 
 
+@pytest.mark.parametrize("n_step", [1, 4])
 def test_two_envs_interrupted_and_resumed_equal_uninterrupted(
-    tiny: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    n_step: int, tiny: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """With n_step 4 the windows of both envs' episodes in progress are in the checkpoint."""
     config = _config(tiny, n_envs=2, vector="sync", total_steps=150, checkpoint_every=30)
+    config = replace(config, agent=replace(config.agent, n_step=n_step))
     a, b = tmp_path / "a", tmp_path / "b"
     train(config, a, progress=False)
     original = D3DWAEnv.step

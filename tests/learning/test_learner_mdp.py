@@ -77,7 +77,7 @@ def learn_chain(
         while agent.env_steps < steps:
             step = step_envs(agent, collector, obs)
             for i in range(collector.n):
-                feed(agent, step.transition(i))
+                feed(agent, step.transition(i), i)
             obs = step.next_obs
             if step.done.any():
                 obs = collector.reset_some(step.done, None)

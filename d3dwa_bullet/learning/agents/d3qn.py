@@ -33,6 +33,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.learning.agents.n_step import NStepWindows
 from d3dwa_bullet.learning.agents.network import DuelingQNetwork
 from d3dwa_bullet.learning.agents.replay import ReplayBuffer, Transition
 from d3dwa_bullet.limits import MAX_REPLAY_CAPACITY
@@ -74,6 +75,9 @@ class D3QNConfig:
     """Seeds network init, exploration and replay sampling."""
     torch_threads: int = 1
     """Intra-op threads for torch (a 12-d MLP runs fastest on one; 0 leaves torch's default)."""
+    n_step: int = 1
+    """Rewards each stored transition sums before its target bootstraps; 1: the paper's
+    one-step target. Beyond the paper, off by default (agents/n_step.py)."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "hidden", tuple(int(h) for h in self.hidden))
@@ -105,6 +109,7 @@ class D3QNConfig:
             ("huber_delta", self.huber_delta > 0, "> 0"),
             ("hidden", bool(self.hidden) and min(self.hidden) >= 1, "non-empty positive widths"),
             ("torch_threads", self.torch_threads >= 0, ">= 0"),
+            ("n_step", 1 <= self.n_step <= 1000, "in [1, 1000]"),
         ]
         for name, ok, rule in checks:
             if not ok:
@@ -146,11 +151,12 @@ def double_dqn_target(
     terminated: torch.Tensor,
     online: Callable[[torch.Tensor], torch.Tensor],
     target: Callable[[torch.Tensor], torch.Tensor],
-    gamma: float,
+    gamma: float | torch.Tensor,
 ) -> torch.Tensor:
     """y = r + gamma (1 - d) Q_target(s', argmax_a Q_online(s', a)): (B,) float32.
 
-    rewards, terminated: (B,) float32 (terminated in {0, 1}); next_obs: (B, obs_dim).
+    rewards, terminated: (B,) float32 (terminated in {0, 1}); next_obs: (B, obs_dim);
+    gamma: a number, or (B,) float32 per transition (gamma^k of a k-step one).
     The online network selects the next action, the target network values it.
     """
     next_actions = online(next_obs).argmax(dim=1, keepdim=True)
@@ -205,6 +211,8 @@ class D3QNAgent:
         self._rng = np.random.default_rng(act_seed)
         self._replay_seed = replay_seed
         self._replay: ReplayBuffer | None = None  # allocated on first observe (not for inference)
+        self.n_step_windows = NStepWindows(config.n_step, config.gamma)
+        """Each env's transitions waiting to be stored as n-step ones (n_step > 1)."""
         with torch.random.fork_rng(devices=[]):  # deterministic init, global RNG untouched
             torch.manual_seed(config.seed)
             self.online = DuelingQNetwork(self.obs_dim, self.n_actions, config.hidden)
@@ -274,8 +282,10 @@ class D3QNAgent:
                 out[greedy] = self.online(x).argmax(dim=1).numpy()
         return out
 
-    def observe(self, transition: Transition) -> None:
-        """Store one transition (truncation is kept non-terminal)."""
+    def observe(self, transition: Transition, env: int = 0) -> None:
+        """Store one transition of env ``env`` (truncation is kept non-terminal); with
+        ``n_step > 1`` it waits in the env's window and the n-step ones it completes are
+        stored (agents/n_step.py). ``env_steps`` counts the transitions observed."""
         if not 0 <= transition.action < self.n_actions:
             raise ConfigError(f"D3QNAgent.observe: action {transition.action!r} out of range")
         for name in ("obs", "next_obs"):
@@ -284,7 +294,11 @@ class D3QNAgent:
                 raise ValueError(
                     f"D3QNAgent.observe: {name} must be finite with shape ({self.obs_dim},), got {x!r}"
                 )
-        self.replay.add(transition)
+        if self.config.n_step == 1:
+            self.replay.add(transition, self.config.gamma)
+        else:
+            for folded, discount in self.n_step_windows.push(transition, env):
+                self.replay.add(folded, discount)
         self.env_steps += 1
 
     def update(self) -> dict[str, float]:
@@ -303,9 +317,10 @@ class D3QNAgent:
         rewards = torch.from_numpy(batch.rewards)
         next_obs = torch.from_numpy(batch.next_obs)
         terminated = torch.from_numpy(batch.terminated)
+        discount = c.gamma if c.n_step == 1 else torch.from_numpy(batch.discounts)
         t1 = time.perf_counter()
 
-        y = double_dqn_target(rewards, next_obs, terminated, self.online, self.target, c.gamma)
+        y = double_dqn_target(rewards, next_obs, terminated, self.online, self.target, discount)
         q = self.online(obs).gather(1, actions.unsqueeze(1)).squeeze(1)
         loss = huber_loss(q, y, c.huber_delta)
         self.optimizer.zero_grad(set_to_none=True)
@@ -335,8 +350,8 @@ class D3QNAgent:
         stored and a batch can be drawn."""
         c = self.config
         first = max(c.learning_starts, c.batch_size, 1)
-        if self.env_steps < first:
-            return 0
+        if self.env_steps < first or self._replay is None or len(self._replay) == 0:
+            return 0  # (n-step transitions are stored up to n - 1 observations late)
         slots = self.env_steps // c.train_freq - (first - 1) // c.train_freq
         return max(0, slots - self.train_steps)
 

@@ -28,19 +28,21 @@ class Transition(NamedTuple):
 
 class ReplayBatch(NamedTuple):
     """A sampled minibatch: obs, next_obs (B, obs_dim) float32; actions (B,) int64;
-    rewards (B,) float32; terminated (B,) float32 in {0, 1}."""
+    rewards (B,) float32; terminated (B,) float32 in {0, 1}; discounts (B,) float32, the
+    discount of each bootstrap (gamma^k for a k-step transition, agents/n_step.py)."""
 
     obs: np.ndarray
     actions: np.ndarray
     rewards: np.ndarray
     next_obs: np.ndarray
     terminated: np.ndarray
+    discounts: np.ndarray
 
 
 def replay_bytes(capacity: int, obs_dim: int) -> int:
     """Bytes a ReplayBuffer of ``capacity`` transitions allocates: obs and next_obs
-    float32, action int64, reward and terminated float32."""
-    return int(capacity) * (2 * 4 * int(obs_dim) + 8 + 4 + 4)
+    float32, action int64, reward, terminated and discount float32."""
+    return int(capacity) * (2 * 4 * int(obs_dim) + 8 + 4 + 4 + 4)
 
 
 def check_replay_memory(capacity: int, obs_dim: int, option: str = "buffer_size") -> None:
@@ -74,20 +76,23 @@ class ReplayBuffer:
         self._actions = np.zeros(self.capacity, dtype=np.int64)
         self._rewards = np.zeros(self.capacity, dtype=np.float32)
         self._terminated = np.zeros(self.capacity, dtype=np.float32)
+        self._discounts = np.zeros(self.capacity, dtype=np.float32)
         self._pos = 0
         self._size = 0
 
     def __len__(self) -> int:
         return self._size
 
-    def add(self, transition: Transition) -> None:
-        """Store one transition, overwriting the oldest once full."""
+    def add(self, transition: Transition, discount: float = 1.0) -> None:
+        """Store one transition, overwriting the oldest once full; ``discount``: that of its
+        bootstrap (the one-step target uses the agent's gamma and does not read it)."""
         i = self._pos
         self._obs[i] = transition.obs
         self._next_obs[i] = transition.next_obs
         self._actions[i] = transition.action
         self._rewards[i] = transition.reward
         self._terminated[i] = float(bool(transition.terminated))
+        self._discounts[i] = discount
         self._pos = (i + 1) % self.capacity
         self._size = min(self._size + 1, self.capacity)
 
@@ -102,4 +107,5 @@ class ReplayBuffer:
             self._rewards[idx],
             self._next_obs[idx],
             self._terminated[idx],
+            self._discounts[idx],
         )

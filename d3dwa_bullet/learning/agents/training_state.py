@@ -83,6 +83,7 @@ def training_state_files(agent: Agent, trainer: Mapping[str, Any]) -> dict[str, 
             "pos": replay._pos,
             "rng": _rng_state(replay._rng),
         }
+        state["n_step_windows"] = agent.n_step_windows.state()
         buf = io.BytesIO()
         np.savez(
             buf,
@@ -91,6 +92,7 @@ def training_state_files(agent: Agent, trainer: Mapping[str, Any]) -> dict[str, 
             actions=replay._actions[:n],
             rewards=replay._rewards[:n],
             terminated=replay._terminated[:n],
+            discounts=replay._discounts[:n],
         )
         files[REPLAY_FILE] = buf.getvalue()
     try:
@@ -145,8 +147,13 @@ def restore_training_state(directory: str | os.PathLike[str], agent: Agent) -> d
             with np.load(rpath, allow_pickle=False) as data:
                 for name in ("obs", "next_obs", "actions", "rewards", "terminated"):
                     getattr(replay, f"_{name}")[:n] = data[name]
+                # a checkpoint from before n-step returns stored one-step transitions only
+                replay._discounts[:n] = (
+                    data["discounts"] if "discounts" in data.files else agent.config.gamma
+                )
         except (OSError, ValueError, KeyError) as err:
             raise CheckpointError(f"{rpath}: cannot restore the replay buffer ({err})") from err
         replay._size, replay._pos = n, int(info["pos"])
         _set_rng_state(replay._rng, info["rng"], str(path))
+        agent.n_step_windows.load_state(state.get("n_step_windows", {}), str(path))
     return dict(state["trainer"])

@@ -92,10 +92,11 @@ def step_envs(
     return LockStep(obs, actions, obs2, rewards, terminated, truncated, infos)
 
 
-def feed(agent: Agent, transition: Transition) -> Updates:
-    """Give one transition to the learner: the D3QN stores it (its gradient steps come with
-    the next ``step_envs``), the tabular agent learns from it at once; the update logs."""
+def feed(agent: Agent, transition: Transition, env: int = 0) -> Updates:
+    """Give env ``env``'s transition to the learner: the D3QN stores it (its gradient steps
+    come with the next ``step_envs``), the tabular agent learns from it at once; the update
+    logs."""
     if isinstance(agent, D3QNAgent):
-        agent.observe(transition)
+        agent.observe(transition, env)
         return []
     return [agent.learn(transition)]

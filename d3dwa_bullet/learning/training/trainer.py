@@ -224,7 +224,7 @@ class Trainer:
             if p.env_steps >= c.total_steps:  # the budget ends inside this lock-step
                 break
             t5 = perf()
-            self._log_losses(feed(agent, step.transition(i)))
+            self._log_losses(feed(agent, step.transition(i), i))
             timing["learn"] += perf() - t5
             p.env_steps += 1
             bar.update(1)
