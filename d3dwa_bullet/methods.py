@@ -185,6 +185,9 @@ def make_controller(
     hold = int(meta.get("metadata", {}).get("decision_steps", 1))
     if hold > 1:
         source += f" (one decision every {hold} control steps)"
+    trained_in = str(meta.get("metadata", {}).get("recovery", "none"))
+    if trained_in != "none":
+        source += f" (trained inside the recovery layer {trained_in!r}: run with --recovery so)"
     return Controller(
         name, policy=policy, actions=actions, source=source, observation=kind, hold=hold
     )

@@ -376,5 +376,10 @@ def test_a_recovery_run_trains_and_validates_inside_the_layer(tiny: str, tmp_pat
     out = tmp_path / "run"
     train(config, out, progress=False)
     assert load_train_config(out / "config.json").recovery == "nav2"
+    # the policy says so, and so does every controller built from it
+    assert load_checkpoint(out / "policy")[1]["metadata"]["recovery"] == "nav2"
+    from d3dwa_bullet.methods import make_controller
+
+    assert "recovery layer 'nav2'" in make_controller("d3dwa", policy_path=out / "policy").source
     with pytest.raises(ConfigError, match="TrainConfig.recovery.*'spin'"):
         _config(tiny, recovery="spin")

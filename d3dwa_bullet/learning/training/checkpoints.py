@@ -66,6 +66,7 @@ def run_metadata(
         "reward_scale": c.reward_scale,
         "observation": c.observation,
         "decision_steps": c.decision_steps,  # a policy holds each action this many steps
+        "recovery": c.recovery,  # the layer it trained inside (run it with --recovery so)
         **dict(extra or {}),
     }
 
