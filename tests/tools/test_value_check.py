@@ -22,8 +22,7 @@ def test_a_directory_without_policies_is_one_line_and_status_2(tmp_path: Path, c
 def test_two_seeds_get_a_calibration_each_and_an_agreement(tmp_path: Path, monkeypatch) -> None:
     for k in (0, 1):
         shutil.copytree(policies_dir() / "d3dwa" / f"seed-{k}", tmp_path / f"seed-{k}")
-    monkeypatch.setattr(value_check, "WORLDS", ("R1",))
-    result = value_check.check(tmp_path)
+    result = value_check.check(tmp_path, worlds=("R1",))
     assert [s["policy"] for s in result["seeds"]] == ["seed-0", "seed-1"]
     for s in result["seeds"]:
         assert s["gamma"] == pytest.approx(0.997) and s["pairs"] > 0
@@ -48,6 +47,14 @@ def test_epsilon_outside_0_1_is_one_line_and_status_2(tmp_path: Path, capsys) ->
     assert value_check.main([str(tmp_path), "--epsilon", "1.5"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--epsilon" in err[0] and "1.5" in err[0]
+
+
+@pytest.mark.parametrize("worlds", ["", " , ", "NOWHERE"])
+def test_worlds_that_name_nothing_are_one_line_and_status_2(worlds: str, capsys) -> None:
+    directory = str(policies_dir() / "d3dwa" / "seed-0")
+    assert value_check.main([directory, "--worlds", worlds]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and ("--worlds" in err[0] or "NOWHERE" in err[0]), err
 
 
 def test_epsilon_greedy_explores_on_its_own_seeded_stream() -> None:

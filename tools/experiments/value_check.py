@@ -34,6 +34,7 @@ from d3dwa_bullet.learning.agents.checkpoint import META_FILE, load_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
 from d3dwa_bullet.learning.agents.policy import Policy, greedy_policy, taken_q_values
+from d3dwa_bullet.learning.tasks import resolve_world
 from d3dwa_bullet.learning.training import load_train_config
 from d3dwa_bullet.learning.training.config import make_env
 from d3dwa_bullet.learning.training.greedy_eval import GreedyEpisode, greedy_episode
@@ -82,14 +83,17 @@ def epsilon_greedy(policy: Policy, n_actions: int, epsilon: float, seed: int) ->
 
 
 def episodes_of(
-    agent: D3QNAgent | DQDWAAgent, config: Any, epsilon: float = 0.0
+    agent: D3QNAgent | DQDWAAgent,
+    config: Any,
+    epsilon: float = 0.0,
+    worlds: tuple[str, ...] = WORLDS,
 ) -> list[GreedyEpisode]:
-    env = make_env(config, worlds=WORLDS, allow_eval_worlds=True)
+    env = make_env(config, worlds=worlds, allow_eval_worlds=True)
     policy = greedy_policy(agent)
     if epsilon:
         policy = epsilon_greedy(policy, int(env.action_space.n), epsilon, seed=0)
     try:
-        return [greedy_episode(env, policy, w, "none", 0) for w in WORLDS]
+        return [greedy_episode(env, policy, w, "none", 0) for w in worlds]
     finally:
         env.close()
 
@@ -101,14 +105,15 @@ def q_table(agent: D3QNAgent | DQDWAAgent, obs: np.ndarray) -> np.ndarray:
     return np.stack([agent.table[agent.discretisation.state_index(o)] for o in obs])
 
 
-def check(path: Path, epsilon: float = 0.0) -> dict[str, Any]:
+def check(path: Path, epsilon: float = 0.0, worlds: tuple[str, ...] = WORLDS) -> dict[str, Any]:
     """Every figure of the module docstring for one policy directory (``epsilon`` > 0: the
-    episodes act epsilon-greedily instead, a diagnostic of whose returns the values follow)."""
+    episodes act epsilon-greedily instead, a diagnostic of whose returns the values follow;
+    ``worlds``: other worlds than R1-R3 and three fresh layouts, e.g. the training worlds)."""
     agents = {label: load(p) for label, p in policy_dirs(path).items()}
     seeds, states = [], []
     for label, (agent, config) in agents.items():
-        print(f"value_check: {label}: {len(WORLDS)} greedy episodes", file=sys.stderr)
-        eps = episodes_of(agent, config, epsilon)
+        print(f"value_check: {label}: {len(worlds)} greedy episodes", file=sys.stderr)
+        eps = episodes_of(agent, config, epsilon, worlds)
         gamma = agent.config.gamma
         q_taken = [taken_q_values(agent, e.obs, e.actions) for e in eps]
         rewards = [e.rewards for e in eps]
@@ -138,7 +143,7 @@ def check(path: Path, epsilon: float = 0.0) -> dict[str, Any]:
         gaps[label] = float(np.median(top2[:, 1] - top2[:, 0]))
     return {
         "directory": str(path),
-        "worlds": list(WORLDS),
+        "worlds": list(worlds),
         "epsilon": epsilon,
         "seeds": seeds,
         "states": len(visited),
@@ -231,14 +236,26 @@ def main(argv: list[str] | None = None) -> int:
         help="act epsilon-greedily (a diagnostic: do the values follow the exploring "
         "behaviour's returns rather than the greedy policy's?); default 0, greedy",
     )
+    ap.add_argument(
+        "--worlds",
+        default=",".join(WORLDS),
+        help="comma-separated worlds of the episodes (default: R1-R3 and three fresh "
+        "layouts); e.g. TS1,TS2,TS3,TS4 to read the values on the training worlds",
+    )
     args = ap.parse_args(argv)
+    worlds = tuple(w.strip() for w in args.worlds.split(",") if w.strip())
+    if not worlds:
+        print(f"value_check: error: --worlds names no world: {args.worlds!r}", file=sys.stderr)
+        return 2
     if not 0.0 <= args.epsilon <= 1.0:
         print(
             f"value_check: error: --epsilon must be in [0, 1], got {args.epsilon}", file=sys.stderr
         )
         return 2
     try:
-        result = check(args.directory, args.epsilon)
+        for world in worlds:  # every name checked before any episode runs
+            resolve_world(world, allow_eval_worlds=True, where="--worlds")
+        result = check(args.directory, args.epsilon, worlds)
     except (D3DWAError, OSError) as err:
         print(f"value_check: error: {err}", file=sys.stderr)
         return 2
