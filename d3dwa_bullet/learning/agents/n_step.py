@@ -76,7 +76,7 @@ class NStepWindows:
                     bool(t.truncated),
                 ]
                 for t in window
-            ]  # fmt: skip
+            ]
             for env, window in self._windows.items()
             if window
         }
