@@ -182,10 +182,11 @@ def make_controller(
     policy, actions, meta = load_policy(
         path, expected_actions=LEARNED[name], expected_observation=(kind, f"method {name!r}")
     )
-    hold = int(meta.get("metadata", {}).get("decision_steps", 1))
+    metadata = meta.get("metadata", {})
+    hold = int(metadata.get("decision_steps", 1))
     if hold > 1:
         source += f" (one decision every {hold} control steps)"
-    trained_in = str(meta.get("metadata", {}).get("recovery", "none"))
+    trained_in = str(metadata.get("recovery", "none"))
     if trained_in != "none":
         source += f" (trained inside the recovery layer {trained_in!r}: run with --recovery so)"
     return Controller(

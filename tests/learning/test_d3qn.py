@@ -90,7 +90,7 @@ def test_truncation_is_stored_non_terminal(
     terminated: bool, truncated: bool, stored: float
 ) -> None:
     buf = ReplayBuffer(4, 2, seed=0)
-    buf.add(Transition(np.zeros(2), 1, 0.5, np.ones(2), terminated, truncated))
+    buf.add(Transition(np.zeros(2), 1, 0.5, np.ones(2), terminated, truncated), 0.5)
     batch = buf.sample(3)
     assert batch.terminated.tolist() == [stored] * 3
     assert batch.actions.dtype == np.int64 and batch.obs.dtype == np.float32
@@ -111,7 +111,7 @@ def test_replay_ring_and_seeded_sampling() -> None:
     a, b = ReplayBuffer(3, 1, seed=7), ReplayBuffer(3, 1, seed=7)
     for i in range(5):
         for buf in (a, b):
-            buf.add(Transition(np.array([i]), 0, float(i), np.array([i + 1]), False))
+            buf.add(Transition(np.array([i]), 0, float(i), np.array([i + 1]), False), 0.9)
     assert len(a) == 3
     sa, sb = a.sample(50), b.sample(50)
     assert np.array_equal(sa.rewards, sb.rewards)

@@ -212,7 +212,7 @@ class D3QNAgent:
         self._replay_seed = replay_seed
         self._replay: ReplayBuffer | None = None  # allocated on first observe (not for inference)
         self.n_step_windows = NStepWindows(config.n_step, config.gamma)
-        """Each env's transitions waiting to be stored as n-step ones (n_step > 1)."""
+        """Each env's transitions waiting to be stored as n-step ones (none when n_step is 1)."""
         with torch.random.fork_rng(devices=[]):  # deterministic init, global RNG untouched
             torch.manual_seed(config.seed)
             self.online = DuelingQNetwork(self.obs_dim, self.n_actions, config.hidden)
@@ -283,9 +283,10 @@ class D3QNAgent:
         return out
 
     def observe(self, transition: Transition, env: int = 0) -> None:
-        """Store one transition of env ``env`` (truncation is kept non-terminal); with
-        ``n_step > 1`` it waits in the env's window and the n-step ones it completes are
-        stored (agents/n_step.py). ``env_steps`` counts the transitions observed."""
+        """Store one transition of env ``env`` (truncation is kept non-terminal) through the
+        env's n-step window: with ``n_step`` 1 it is stored at once with discount gamma,
+        else it waits and the n-step ones it completes are stored (agents/n_step.py).
+        ``env_steps`` counts the transitions observed."""
         if not 0 <= transition.action < self.n_actions:
             raise ConfigError(f"D3QNAgent.observe: action {transition.action!r} out of range")
         for name in ("obs", "next_obs"):
@@ -294,11 +295,8 @@ class D3QNAgent:
                 raise ValueError(
                     f"D3QNAgent.observe: {name} must be finite with shape ({self.obs_dim},), got {x!r}"
                 )
-        if self.config.n_step == 1:
-            self.replay.add(transition, self.config.gamma)
-        else:
-            for folded, discount in self.n_step_windows.push(transition, env):
-                self.replay.add(folded, discount)
+        for stored, discount in self.n_step_windows.push(transition, env):
+            self.replay.add(stored, discount)
         self.env_steps += 1
 
     def update(self) -> dict[str, float]:
@@ -317,7 +315,7 @@ class D3QNAgent:
         rewards = torch.from_numpy(batch.rewards)
         next_obs = torch.from_numpy(batch.next_obs)
         terminated = torch.from_numpy(batch.terminated)
-        discount = c.gamma if c.n_step == 1 else torch.from_numpy(batch.discounts)
+        discount = torch.from_numpy(batch.discounts)  # gamma^k of each k-step transition
         t1 = time.perf_counter()
 
         y = double_dqn_target(rewards, next_obs, terminated, self.online, self.target, discount)

@@ -83,9 +83,9 @@ class ReplayBuffer:
     def __len__(self) -> int:
         return self._size
 
-    def add(self, transition: Transition, discount: float = 1.0) -> None:
+    def add(self, transition: Transition, discount: float) -> None:
         """Store one transition, overwriting the oldest once full; ``discount``: that of its
-        bootstrap (the one-step target uses the agent's gamma and does not read it)."""
+        bootstrap (gamma for a one-step transition)."""
         i = self._pos
         self._obs[i] = transition.obs
         self._next_obs[i] = transition.next_obs
