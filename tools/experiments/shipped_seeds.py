@@ -1,10 +1,14 @@
 """The shipped training seeds: one row per method from every ``policies/<method>/seed-<k>/``.
 
 Reads each seed's ``summary.json`` (what its training run measured) and prints a Markdown
-table (or ``--json``): seeds, env steps, the step kept (per seed: the best validation's under
-``keep: best``, the last under ``keep: final``, as the seed's config.json says), that
-checkpoint's validation success on the config's eval_worlds, and the wall time per seed. Nothing here
-is typed in; the README's policy table is this command's output.
+table (or ``--json``): seeds, control steps, the step kept (per seed: the best validation's
+under ``keep: best``, the last under ``keep: final``, as the seed's config.json says), that
+checkpoint's validation success on the config's eval_worlds, its value ratio there (mean Q of
+the visited (s, a) over the discounted return they earned; ``gap`` and the absolute difference
+where the return is under 0.1; ``--`` for seeds trained before values were logged), and the
+wall time per seed. A policy that decides every ``decision_steps`` control steps counts its
+steps in control steps too. Nothing here is typed in; the README's policy table is this
+command's output.
 
     python -m tools.experiments.shipped_seeds
 """
@@ -19,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.learning.value_calibration import SMALL_RETURN
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.methods import LEARNED
 from d3dwa_bullet.resources import policies_dir
@@ -36,20 +41,38 @@ def seed_records(folder: Path) -> list[dict[str, Any]]:
         for k, path in seeds.items():
             summary = load_json(path / "summary.json", ResultsError)
             keep, kept = kept_evaluation(path, summary)
+            per = _decision_steps(path)
+            step = kept.get("step")
             rows.append({
-                "seed": k, "env_steps": summary["env_steps"], "keep": keep,
-                "kept_step": kept.get("step"), "validation_success": kept.get("success_rate"),
-                "wall_min": summary["wall_time_s"] / 60.0,
+                "seed": k, "env_steps": summary["env_steps"] * per, "keep": keep,
+                "kept_step": None if step is None else step * per,
+                "validation_success": kept.get("success_rate"),
+                "values": kept.get("values"), "wall_min": summary["wall_time_s"] / 60.0,
             })  # fmt: skip
         out.append({"method": method, "seeds": rows})
     return out
 
 
+def _decision_steps(folder: Path) -> int:
+    """Control steps per decision of one seed folder (1 without a config.json saying more)."""
+    config = folder / "config.json"
+    data = load_json(config, ResultsError) if config.is_file() else {}
+    return int(data.get("decision_steps", 1) or 1)
+
+
+def _value_text(values: dict[str, Any] | None) -> str:
+    if not values:
+        return "--"
+    if values.get("ratio") is None or abs(values["mean_return"]) < SMALL_RETURN:
+        return f"gap {values['gap']:+.3f}"
+    return f"{values['ratio']:.2f}"
+
+
 def markdown(records: Sequence[dict[str, Any]]) -> str:
     lines = [
         "| policy | seeds | env steps | step kept (per seed) | validation success (per seed) "
-        "| wall per seed |",
-        "|---|---:|---:|---|---|---|",
+        "| value ratio (per seed) | wall per seed |",
+        "|---|---:|---:|---|---|---|---|",
     ]
     for r in records:
         s = r["seeds"]
@@ -63,6 +86,7 @@ def markdown(records: Sequence[dict[str, Any]]) -> str:
         lines.append(
             f"| `{r['method']}` | {', '.join(str(x['seed']) for x in s)} | "
             f"{'/'.join(f'{n // 1000}k' for n in sorted(steps))} | {kept} | {val} | "
+            f"{', '.join(_value_text(x['values']) for x in s)} | "
             f"{min(walls):.1f}-{max(walls):.1f} min |"
         )
     return "\n".join(lines) + "\n"
