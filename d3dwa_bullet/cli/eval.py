@@ -100,6 +100,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         key_apart,
         world_figures,
     )
+    from d3dwa_bullet.evaluation.policy_config import policy_config_notes
     from d3dwa_bullet.evaluation.report import eval_markdown, figure_seeds, seeds_markdown
 
     worlds, renamed = key_apart(loaded)
@@ -123,6 +124,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     }  # fmt: skip
     if policy:
         settings["policy"] = str(Path(policy).resolve())
+        settings["policy_notes"] = policy_config_notes(runs, config.recovery_name, policy)
     with locked_dir(out):  # one writer: the episodes, then the tables and figures
         rows = evaluate(
             jobs, out, workers=workers, config=config, progress=not args.json,
@@ -130,8 +132,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
         )  # fmt: skip
         recovery = config.recovery_name
         table = eval_markdown(
-            rows, methods, names, seeds, args.noise, recovery=recovery, renamed=renamed
-        )
+            rows, methods, names, seeds, args.noise, recovery=recovery, renamed=renamed,
+            policy_notes=settings.get("policy_notes", []),
+        )  # fmt: skip
         atomic_write_text(out / "table.md", table)
         atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names))
         figures = world_figures(out, worlds, methods, seeds[0], args.noise, figure_seeds(rows))

@@ -71,12 +71,14 @@ def eval_markdown(
     title: str | None = None,
     recovery: str = "none",
     renamed: Mapping[str, str] | None = None,
+    policy_notes: Sequence[str] = (),
 ) -> str:
     """The evaluation page of ``d3dwa eval`` (table.md): success and time over training
     seeds with their intervals, then the paper's layout pooled over every episode. With a
-    recovery layer the page says so under the title, and worlds keyed apart from another of
-    the same name (renamed: {key: source}, ``jobs.key_apart``) say which file they are; the
-    paper track's page of distinct worlds is unchanged."""
+    recovery layer the page says so under the title, each policy brought with ``--policy``
+    names the config it was trained under (policy_notes, ``policy_config``), and worlds keyed
+    apart from another of the same name (renamed: {key: source}, ``jobs.key_apart``) say which
+    file they are; the paper track's page of distinct worlds is unchanged."""
     span = f"{seeds[0]}..{seeds[-1]}" if seeds else "none"
     keys = "".join(
         f"World `{key}` is {source} (keyed apart from another world of that name).\n\n"
@@ -85,7 +87,8 @@ def eval_markdown(
     return (
         f"# {title or 'Evaluation: ' + ', '.join(worlds)}\n\n"
         f"{recovery_note(recovery)}"
-        f"Noise profile: `{noise}`; evaluation seeds: {span}.\n\n"
+        + "".join(f"{note}\n\n" for note in policy_notes)
+        + f"Noise profile: `{noise}`; evaluation seeds: {span}.\n\n"
         f"{keys}"
         "## Over training seeds\n\n"
         "A run is one training seed of a learned method (its episodes averaged) or one "
@@ -167,7 +170,10 @@ def write_table_page(
     methods, worlds, seeds, noise = eval_settings(meta)
     dest = Path(dest)
     dest.parent.mkdir(parents=True, exist_ok=True)
-    page = eval_markdown(rows, methods, worlds, seeds, noise, title, recovery_of(out))
+    notes = meta.get("settings", {}).get("policy_notes", [])
+    page = eval_markdown(
+        rows, methods, worlds, seeds, noise, title, recovery_of(out), policy_notes=notes
+    )
     page += f"\nFrom `{out / 'results.csv'}` ({len(rows)} episodes), d3dwa-bullet {__version__}.\n"
     atomic_write_text(dest, page)
     return dest

@@ -1,0 +1,92 @@
+"""Which config a policy brought with ``--policy`` was trained under, said on the page.
+
+Users bring their own policies: a folder trained under another config than its method's
+committed ``configs/<method>.yaml`` still runs, and the evaluation page names that config and
+how it differs, so a table never passes another learner's seeds off as the method's. A policy
+trained inside a recovery layer that the evaluation runs without (or the reverse) is said too.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from d3dwa_bullet.errors import CheckpointError
+from d3dwa_bullet.evaluation.policy_runs import PolicyRun
+from d3dwa_bullet.evaluation.results import differences
+from d3dwa_bullet.learning.training.config import TrainConfig, load_train_config
+from d3dwa_bullet.loading import load_json
+from d3dwa_bullet.resources import configs_dir
+
+SHOWN = 6
+"""Differences named on the page (top-level fields first); the rest are counted."""
+
+IGNORED = ("seed", "agent.seed")
+"""Fields that differ between the seeds of one experiment."""
+
+BOOKKEEPING = ("checkpoint_every", "eval_every", "log_every", "eval_worlds", "eval_seeds")
+"""Fields that do not change what is learned: named after those that do."""
+
+
+def _plain(config: TrainConfig) -> dict[str, Any]:
+    data = config.to_dict()
+    for name in IGNORED:
+        *parent, leaf = name.split(".")
+        (data[parent[0]] if parent else data).pop(leaf, None)
+    return data
+
+
+def _order(name: str) -> tuple[bool, bool, str]:
+    return (name in BOOKKEEPING, "." in name, name)
+
+
+def _value(value: Any) -> str:
+    return "unset" if value is None else str(value)
+
+
+def policy_config_note(run: PolicyRun, recovery: str, policy: str) -> str | None:
+    """One Markdown line on the config ``run``'s policy folder was trained under, against
+    its method's committed config (``policy``: the ``--policy`` it came from); None when the run has no policy folder with a config.json
+    (a fixed method, the shipped policies, a bare checkpoint file)."""
+    if run.policy is None:
+        return None
+    config_file = Path(run.policy) / "config.json"
+    if not config_file.is_file():
+        return None
+    trained = TrainConfig.from_dict(load_json(config_file, CheckpointError), str(config_file))
+    committed_file = configs_dir() / f"{run.method}.yaml"
+    committed = load_train_config(committed_file)
+    diffs = sorted(differences(_plain(committed), _plain(trained)), key=lambda d: _order(d[0]))
+    source = f"`{run.method}` from `{policy}`"
+    if not diffs:
+        line = f"{source}: trained under the committed `configs/{run.method}.yaml`."
+    else:
+        named = ", ".join(
+            f"{k} {_value(new)} (committed {_value(old)})" for k, old, new in diffs[:SHOWN]
+        )
+        more = f" and {len(diffs) - SHOWN} more" if len(diffs) > SHOWN else ""
+        line = (
+            f"{source}: trained under its own config (`{config_file}`), not the committed "
+            f"`configs/{run.method}.yaml`: {named}{more}."
+        )
+    if trained.recovery != recovery:
+        line += (
+            f" It was trained with the recovery layer `{trained.recovery}`; this evaluation runs "
+            f"with `{recovery}`."
+        )
+    return line
+
+
+def policy_config_notes(runs: Sequence[PolicyRun], recovery: str, policy: str) -> list[str]:
+    """:func:`policy_config_note` for the first training seed of each method brought with
+    ``--policy`` (the seeds of one method share their config: ``policy_runs`` checks)."""
+    notes, seen = [], set()
+    for run in runs:
+        if run.method in seen:
+            continue
+        note = policy_config_note(run, recovery, policy)
+        if note is not None:
+            seen.add(run.method)
+            notes.append(note)
+    return notes

@@ -1,0 +1,73 @@
+"""A policy brought with --policy names the config it was trained under on the evaluation page:
+the committed one, or its own with how it differs, and a recovery layer it trained inside."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from d3dwa_bullet.evaluation.policy_config import policy_config_notes
+from d3dwa_bullet.evaluation.policy_runs import method_runs
+from d3dwa_bullet.learning.agents.checkpoint import save_checkpoint
+from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
+from d3dwa_bullet.learning.training.config import load_train_config
+from d3dwa_bullet.planning.actions import ACTIONS_FULL
+from d3dwa_bullet.resources import configs_dir
+from tests.support.cli import run
+
+
+def committed_seeds(root: Path, seeds=(0, 1), **changes) -> Path:
+    """root/d3dwa/seed-<k>/: an untrained D3QN and the committed d3dwa config (seed k), with
+    ``changes`` (dotted names, e.g. ``agent.gamma``) applied to every seed."""
+    for k in seeds:
+        agent = D3QNAgent(ACTIONS_FULL, D3QNConfig(hidden=(8,), seed=k))
+        path = save_checkpoint(root / "d3dwa" / f"seed-{k}", agent, method="d3dwa")
+        config = load_train_config(configs_dir() / "d3dwa.yaml").to_dict()
+        config["seed"] = config["agent"]["seed"] = k
+        for name, value in changes.items():
+            *parent, leaf = name.split(".")
+            (config[parent[0]] if parent else config)[leaf] = value
+        (path / "config.json").write_text(json.dumps(config))
+    return root / "d3dwa"
+
+
+def test_seeds_of_the_committed_config_say_so(tmp_path):
+    folder = str(committed_seeds(tmp_path))
+    notes = policy_config_notes(method_runs(["d3dwa"], folder), "none", folder)
+    assert notes == [f"`d3dwa` from `{folder}`: trained under the committed `configs/d3dwa.yaml`."]
+
+
+def test_another_config_is_named_with_what_differs_learning_fields_first(tmp_path):
+    folder = str(committed_seeds(tmp_path, **{"agent.gamma": 0.95, "eval_every": 500,
+                                              "decision_steps": 10, "recovery": "nav2"}))  # fmt: skip
+    (note,) = policy_config_notes(method_runs(["dwa1", "d3dwa"], folder), "none", folder)
+    assert note.startswith(
+        f"`d3dwa` from `{folder}`: trained under its own config (`{folder}/seed-0/config.json`), "
+        "not the committed `configs/d3dwa.yaml`: decision_steps 10 (committed 1), recovery nav2 "
+        "(committed none), agent.gamma 0.95 (committed 0.997), eval_every 500 (committed 20000)."
+    )
+    assert note.endswith(
+        "It was trained with the recovery layer `nav2`; this evaluation runs with `none`."
+    )
+    # the same layer in evaluation: nothing to warn about
+    (same,) = policy_config_notes(method_runs(["d3dwa"], folder), "nav2", folder)
+    assert "this evaluation runs" not in same
+
+
+def test_a_folder_without_a_config_has_no_note(tmp_path):
+    agent = D3QNAgent(ACTIONS_FULL, D3QNConfig(hidden=(8,)))
+    path = save_checkpoint(tmp_path / "bare", agent, method="d3dwa")
+    (path / "config.json").unlink(missing_ok=True)
+    assert policy_config_notes(method_runs(["d3dwa"], str(path)), "none", str(path)) == []
+
+
+def test_eval_runs_a_policy_of_another_config_and_its_page_names_it(
+    one_second_world, tmp_path, capsys
+):
+    folder = committed_seeds(tmp_path, seeds=(0,), **{"agent.lr": 0.0001})
+    out = tmp_path / "out"
+    code, text, err = run(capsys, "eval", "--methods", "d3dwa", "--policy", folder, "--worlds",
+                          one_second_world, "--seeds", "1", "--out", out)  # fmt: skip
+    assert code == 0, err
+    line = "agent.lr 0.0001 (committed 0.0003)."
+    assert line in (out / "table.md").read_text() and line in text
