@@ -9,13 +9,15 @@ import sys
 from d3dwa_bullet.cli.output import json_text
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.resources import policies_dir
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("report", help="one Markdown page (tables + figures) for a results dir")
     p.add_argument("dir", help="a results directory written by `d3dwa eval` or `d3dwa sweep`")
-    p.add_argument("--policies", help="where learning curves live (default: policies/)")
+    p.add_argument(
+        "--policies",
+        help="where learning curves live (default: the --policy an evaluation ran, else the shipped policies/)",
+    )
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_report)
 
@@ -27,10 +29,10 @@ def cmd_report(args: argparse.Namespace) -> int:
     if os.path.isdir(args.dir) and not os.access(args.dir, os.W_OK | os.X_OK):
         raise ConfigError(f"{args.dir}: cannot write report.md in it (permission denied)")
     if not os.path.isdir(args.dir):  # write_report names what is missing
-        report = write_report(args.dir, args.policies or policies_dir())
+        report = write_report(args.dir, args.policies)
     else:
         with locked_dir(args.dir, "DIR"):  # not while an eval or sweep still writes it
-            report = write_report(args.dir, args.policies or policies_dir())
+            report = write_report(args.dir, args.policies)
     if args.json:
         print(json_text({"report": str(report.path), "kind": report.kind,
                           "complete": report.complete, "done": report.done,

@@ -179,23 +179,29 @@ def write_table_page(
     return dest
 
 
-def learning_curves(out: Path, policies_dir: Path | None = None) -> list[tuple[str, str]]:
+def learning_curves(
+    out: Path, policies_dir: Path | None = None, method: str | None = None
+) -> list[tuple[str, str, Path]]:
     """Copy every policies/<name>/learning_curve.png and policies/<name>/seed-<k>/
-    learning_curve.png into out/figures; (name, link) pairs, name "<method>/seed-<k>" for a
-    seed's."""
+    learning_curve.png into out/figures; (name, link, source) triples, name
+    "<method>/seed-<k>" for a seed's. With ``method``, policies_dir is that one method's
+    folder (a ``--policy``)."""
     policies_dir = shipped_policies_dir() if policies_dir is None else policies_dir
+    pattern = "" if method else "*/"
     found = (
-        sorted([*policies_dir.glob(f"*/{LEARNING_CURVE}"),
-                *policies_dir.glob(f"*/seed-*/{LEARNING_CURVE}")])
+        sorted([*policies_dir.glob(f"{pattern}{LEARNING_CURVE}"),
+                *policies_dir.glob(f"{pattern}seed-*/{LEARNING_CURVE}")])
         if policies_dir.is_dir() else []
     )  # fmt: skip
     links = []
     for src in found:
         name = src.parent.relative_to(policies_dir).as_posix()
+        if method:
+            name = method if name == "." else f"{method}/{name}"
         dest = out / "figures" / f"learning_curve_{name.replace('/', '_')}.png"
         dest.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_bytes(dest, src.read_bytes())
-        links.append((name, dest.relative_to(out).as_posix()))
+        links.append((name, dest.relative_to(out).as_posix(), src))
     return links
 
 
@@ -217,7 +223,10 @@ def _eval_body(out: Path, meta: dict[str, Any], rows: list[dict], partial: bool)
     methods, worlds, seeds, noise = eval_settings(meta)
     note = " (PARTIAL)" if partial else ""
     recovery = meta.get("settings", {}).get("recovery", "none")
-    body = eval_markdown(rows, methods, worlds, seeds, noise, f"Tables{note}", recovery)
+    notes = meta["settings"].get("policy_notes", [])
+    body = eval_markdown(
+        rows, methods, worlds, seeds, noise, f"Tables{note}", recovery, policy_notes=notes
+    )
     body = "#" + body.replace("\n#", "\n##")  # one level down inside the page
     sources = meta["settings"].get("world_sources", worlds)
     loaded = []
@@ -282,6 +291,7 @@ def _sweep_body(out: Path, meta: dict[str, Any], partial: bool) -> str:
     lines.append(f"\n## Results{note}\n\n")
     by_name = {p.stem: p for p in figures}
     tables = recovery_note(meta.get("settings", {}).get("recovery", "none"))
+    tables += "".join(f"{note}\n\n" for note in meta["settings"].get("policy_notes", []))
     tables += sweep_markdown(rows, settings)
     # Put each axis's figure above its table.
     for name in [*settings.axes, "profiles"]:
@@ -322,18 +332,21 @@ def write_report(
         page.append(_eval_body(out, meta, rows, partial))
     else:
         raise ResultsError(f"{out / 'meta.json'}: unknown results kind {kind!r}")
-    policies = shipped_policies_dir() if policies_dir is None else Path(policies_dir)
-    curves = learning_curves(out, policies)
+    # an evaluation of a --policy shows that policy's curves, not the shipped ones
+    brought = settings.get("policy") if policies_dir is None else None
+    if brought:
+        policies, method = Path(brought), (settings.get("methods") or [None])[0]
+    else:
+        policies = shipped_policies_dir() if policies_dir is None else Path(policies_dir)
+        method = None
+    curves = learning_curves(out, policies, method)
     if curves:
         page.append("\n## Learning curves\n\n")
-        where = policies.name
-        for name, link in curves:
+        for name, link, src in curves:
             method, _, seed = name.partition("/")
             label = LABELS.get(method, method) + (f", {seed}" if seed else "")
-            page.append(
-                f"### {label} (`{where}/{name}/{LEARNING_CURVE}`)\n\n"
-                f"![{name} learning curve]({link})\n\n"
-            )
+            where = src.relative_to(policies.parent).as_posix()
+            page.append(f"### {label} (`{where}`)\n\n![{name} learning curve]({link})\n\n")
     path = out / "report.md"
     atomic_write_text(path, "".join(page))
     return Report(path, kind, done, expected)

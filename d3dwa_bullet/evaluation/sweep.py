@@ -46,6 +46,7 @@ from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.evaluation.jobs import Job, evaluate, noise_config_json
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.plotting import sweep_figure
+from d3dwa_bullet.evaluation.policy_config import policy_config_notes
 from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
 from d3dwa_bullet.evaluation.results import CSV_FIELDS, completion, read_results, row_key
 from d3dwa_bullet.evaluation.seed_tables import condition_table
@@ -281,8 +282,10 @@ def run_sweep(
     jobs = sweep_jobs(settings, policy)
     meta = {"kind": "sweep", "command": command} | settings.to_dict()
     meta["policy_digests"] = policy_digests(runs)
+    notes: list[str] = []
     if policy:
         meta["policy"] = str(Path(policy).resolve())
+        notes = meta["policy_notes"] = policy_config_notes(runs, config.recovery_name, policy)
     with locked_dir(out):  # one writer: the episodes, then the page and figures
         evaluate(jobs, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta)
         keys = {j.key for j in jobs}
@@ -293,5 +296,6 @@ def run_sweep(
             sweep_figures(rows, settings, out / "figures")
         if complete:
             page = "# Noise sweep\n\n" + recovery_note(config.recovery_name)
+            page += "".join(f"{note}\n\n" for note in notes)
             atomic_write_text(out / "sweep.md", page + sweep_markdown(rows, settings))
     return rows, complete

@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
+
 from d3dwa_bullet.evaluation.policy_config import policy_config_notes
 from d3dwa_bullet.evaluation.policy_runs import method_runs
 from d3dwa_bullet.learning.agents.checkpoint import save_checkpoint
@@ -14,6 +16,8 @@ from d3dwa_bullet.learning.training.config import load_train_config
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
 from d3dwa_bullet.resources import configs_dir
 from tests.support.cli import run
+
+PNG = bytes.fromhex("89504e470d0a1a0a")  # a PNG signature is enough to copy
 
 
 def committed_seeds(root: Path, seeds=(0, 1), **changes) -> Path:
@@ -61,13 +65,27 @@ def test_a_folder_without_a_config_has_no_note(tmp_path):
     assert policy_config_notes(method_runs(["d3dwa"], str(path)), "none", str(path)) == []
 
 
-def test_eval_runs_a_policy_of_another_config_and_its_page_names_it(
-    one_second_world, tmp_path, capsys
+@pytest.mark.parametrize("command", ["eval", "sweep"])
+def test_a_policy_of_another_config_runs_and_its_page_names_it(
+    command, one_second_world, tmp_path, capsys
 ):
     folder = committed_seeds(tmp_path, seeds=(0,), **{"agent.lr": 0.0001})
     out = tmp_path / "out"
-    code, text, err = run(capsys, "eval", "--methods", "d3dwa", "--policy", folder, "--worlds",
-                          one_second_world, "--seeds", "1", "--out", out)  # fmt: skip
+    extra = {"eval": [], "sweep": ["--styles", "", "--layouts", "0", "--axes", "",
+                                   "--profiles", "none", "--workers", "1"]}[command]  # fmt: skip
+    code, text, err = run(capsys, command, "--methods", "d3dwa", "--policy", folder, "--worlds",
+                          one_second_world, "--seeds", "1", "--out", out, *extra)  # fmt: skip
     assert code == 0, err
     line = "agent.lr 0.0001 (committed 0.0003)."
-    assert line in (out / "table.md").read_text() and line in text
+    page = {"eval": "table.md", "sweep": "sweep.md"}[command]
+    assert line in (out / page).read_text()
+    if command == "eval":
+        assert line in text
+    (folder / "seed-0" / "learning_curve.png").write_bytes(PNG)
+    code, _, err = run(capsys, "report", out)  # the page regenerated from meta.json says it too
+    assert code == 0, err
+    report = (out / "report.md").read_text()
+    assert line in report
+    # and it shows the curves of the policy it evaluated, not the shipped ones
+    assert "figures/learning_curve_d3dwa_seed-0.png" in report
+    assert f"(`{folder.name}/seed-0/learning_curve.png`)" in report and "dqdwa" not in report
