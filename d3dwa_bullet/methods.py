@@ -163,7 +163,8 @@ def make_controller(
     policy_path: a checkpoint directory (default: the shipped ``policies/<name>/``); onnx: an
     ONNX file exported by ``d3dwa export --onnx``, run by onnxruntime without torch (the
     file's observation kind and action set must be the method's). Not both, and neither for
-    a method that needs no policy (ConfigError naming the value).
+    a method that needs no policy (ConfigError naming the value). Either way the controller
+    holds each action for the decision period the policy recorded (``policy_terms``).
     """
     check_method(name)
     refuse_policy(name, policy_path, onnx)
@@ -175,23 +176,17 @@ def make_controller(
         return _onnx_controller(name, policy_path, onnx)
     # start-up cost, and layering: loading a policy imports torch and the learning layer,
     # which fixed methods (and every pure caller of this registry) never need
+    from d3dwa_bullet.learning.agents.checkpoint import META_FILE
     from d3dwa_bullet.learning.agents.policy import load_policy
+    from d3dwa_bullet.learning.agents.policy_terms import checkpoint_terms
 
     path, source = one_policy(name, policy_path)
     kind = method_observation(name)
     policy, actions, meta = load_policy(
         path, expected_actions=LEARNED[name], expected_observation=(kind, f"method {name!r}")
     )
-    metadata = meta.get("metadata", {})
-    hold = int(metadata.get("decision_steps", 1))
-    if hold > 1:
-        source += f" (one decision every {hold} control steps)"
-    trained_in = str(metadata.get("recovery", "none"))
-    if trained_in != "none":
-        source += f" (trained inside the recovery layer {trained_in!r}: run with --recovery so)"
-    return Controller(
-        name, policy=policy, actions=actions, source=source, observation=kind, hold=hold
-    )
+    hold, trained_in = checkpoint_terms(meta, str(path / META_FILE))
+    return _learned(name, policy, actions, source, hold, trained_in)
 
 
 def refuse_policy(
@@ -234,7 +229,23 @@ def _onnx_controller(name: str, policy_path: str | Path | None, onnx: str | Path
         onnx, expected_actions=LEARNED[name], expected_observation=(kind, f"method {name!r}")
     )
     source = f"{onnx} (ONNX, exported for {meta['method']})"
-    return Controller(name, policy=policy, actions=actions, source=source, observation=kind)
+    return _learned(name, policy, actions, source, meta["decision_steps"], meta["recovery"])
+
+
+def _learned(
+    name: str, policy: object, actions: ActionSet, source: str, hold: int, trained_in: str
+) -> Controller:
+    """The controller of a learned method's loaded policy (torch or ONNX, the same way): it
+    holds each action for the policy's decision period, and its source notes that period
+    and the recovery layer the policy trained inside, which a run must ask for itself."""
+    if hold > 1:
+        source += f" (one decision every {hold} control steps)"
+    if trained_in != "none":
+        source += f" (trained inside the recovery layer {trained_in!r}: run with --recovery so)"
+    kind = method_observation(name)
+    return Controller(
+        name, policy=policy, actions=actions, source=source, observation=kind, hold=hold
+    )
 
 
 def one_policy(name: str, policy_path: str | Path | None = None) -> tuple[Path, str]:

@@ -230,7 +230,7 @@ def _foreign_model() -> bytes:
         (lambda src: _foreign_model(), "not a d3dwa policy"),
         (
             lambda src: _model_with_props(src, **{METADATA_KEYS["format_version"]: "99"}),
-            "'99', this code reads version 1",
+            "'99', this code reads versions 1, 2",
         ),
         (
             lambda src: _model_with_props(

@@ -350,7 +350,8 @@ def test_a_decision_period_run_counts_decisions_and_its_policy_holds(
     tiny: str, tmp_path: Path
 ) -> None:
     """Beyond the paper: decision_steps 3 makes one env step three control steps; the saved
-    policy says so, and the controller built from it holds each action three steps."""
+    policy says so, and the controller built from it, or from its ONNX export, holds each
+    action three steps."""
     from d3dwa_bullet.learning.agents.onnx_export import export_onnx
     from d3dwa_bullet.methods import make_controller
 
@@ -362,8 +363,9 @@ def test_a_decision_period_run_counts_decisions_and_its_policy_holds(
     assert meta["metadata"]["decision_steps"] == 3
     controller = make_controller("d3dwa", policy_path=out / "policy")
     assert controller.hold == 3 and "every 3 control steps" in controller.source
-    with pytest.raises(CheckpointError, match="decision_steps 3"):
-        export_onnx(out / "policy", tmp_path / "p.onnx")
+    onnx = export_onnx(out / "policy", tmp_path / "p.onnx").file
+    exported = make_controller("d3dwa", onnx=onnx)
+    assert exported.hold == 3 and "every 3 control steps" in exported.source
 
 
 def test_a_recovery_run_trains_and_validates_inside_the_layer(tiny: str, tmp_path: Path) -> None:

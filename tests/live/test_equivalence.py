@@ -23,6 +23,7 @@ from d3dwa_bullet.params import recovery_params  # noqa: E402
 from d3dwa_bullet.resources import policies_dir  # noqa: E402
 from d3dwa_bullet.world.registry import load_world  # noqa: E402
 from tests.support.cli import run  # noqa: E402
+from tests.support.held_policy import held_checkpoint  # noqa: E402
 
 PATIENT = ("--lockstep", "--watchdog", "60", "--timeout", "30", "--speed-limit", "0.4,2.0")
 
@@ -100,6 +101,31 @@ def test_an_onnx_policy_drives_the_torch_episode(capsys, serve, tmp_path):
     np.testing.assert_array_equal(
         sent, np.column_stack((episode.log["v_cmd"], episode.log["w_cmd"]))
     )
+
+
+def test_a_held_onnx_policy_drives_the_held_torch_episode(capsys, serve, tmp_path):
+    """A policy trained with decision_steps 10 (docs/design.md#decision-period), exported:
+    ``drive --onnx`` holds each action for 10 control steps, as ``run`` with its checkpoint
+    does, and sends the same commands; asked every step, it would have sent others."""
+    checkpoint = held_checkpoint(tmp_path / "held", decision_steps=10)
+    onnx = export_onnx(checkpoint, tmp_path / "held.onnx").file
+    world = load_world("R1")
+    sim, address = serve(world, mode="lockstep")
+    live = drive_json(
+        capsys, address, world.goal, "d3dwa", "--onnx", str(onnx), "--time-limit", "3"
+    )
+    task = world.with_task(time_limit=3.0)
+    held = run_episode(task, make_controller("d3dwa", checkpoint))
+    actions = held.log["action"]
+    assert live["steps"] == held.steps == 30
+    assert [actions[t] for t in range(30)] == [actions[t - t % 10] for t in range(30)]
+    sent = np.asarray(sim.received[:30])
+    np.testing.assert_array_equal(sent, np.column_stack((held.log["v_cmd"], held.log["w_cmd"])))
+    every_step = make_controller("d3dwa", checkpoint)
+    every_step.hold = 1
+    unheld = run_episode(task, every_step)
+    assert len(set(unheld.log["action"][:10])) > 1  # the policy changes its mind within a period
+    assert not np.array_equal(sent, np.column_stack((unheld.log["v_cmd"], unheld.log["w_cmd"])))
 
 
 def test_recovery_runs_on_the_episode_clock(capsys, serve):

@@ -36,7 +36,12 @@ from torch import nn
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import CheckpointError, InstallError
 from d3dwa_bullet.io import atomic_write_bytes
-from d3dwa_bullet.learning.agents.checkpoint import WEIGHTS_FILE, load_checkpoint, read_meta
+from d3dwa_bullet.learning.agents.checkpoint import (
+    META_FILE,
+    WEIGHTS_FILE,
+    load_checkpoint,
+    read_meta,
+)
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 from d3dwa_bullet.learning.agents.network import DuelingQNetwork
 from d3dwa_bullet.learning.agents.onnx_graph import OPSET
@@ -49,6 +54,7 @@ from d3dwa_bullet.learning.agents.onnx_policy import (
     onnx_policy_from_bytes,
     sample_observations,
 )
+from d3dwa_bullet.learning.agents.policy_terms import checkpoint_terms
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.progress import kind_of_layout, observation_layout
 from d3dwa_bullet.resources import policies_dir
@@ -158,9 +164,12 @@ def export_onnx(
     method: the method recorded in the file (default: the checkpoint's own). expected_actions
     and expected_observation ((kind, who feeds it)) are checked as ``load_policy`` checks
     them; without the latter the checkpoint must read one of the known observation kinds.
-    The export is checked (module docstring) before it is written; the parent directory is
-    created. CheckpointError (one line) for a tabular (dqdwa) policy, a directory that is not
-    a checkpoint, an ``out_file`` that is a directory, or a failed check.
+    The file records the checkpoint's decision period and the recovery layer it trained
+    inside (``policy_terms``), so a runner drives it as ``make_controller`` drives the
+    checkpoint. The export is checked (module docstring) before it is written; the parent
+    directory is created. CheckpointError (one line) for a tabular (dqdwa) policy, a
+    directory that is not a checkpoint, a bad decision period or recovery in its meta.json,
+    an ``out_file`` that is a directory, or a failed check.
     """
     root, out = Path(policy_dir), Path(out_file)
     _onnx(str(root))  # the extra is there before any work is done
@@ -181,14 +190,14 @@ def export_onnx(
             f"{root}: observation layout {list(agent.obs_layout)} is none of the known kinds "
             "(paper, progress); no controller could feed it"
         )
-    if int((meta.get("metadata") or {}).get("decision_steps", 1)) > 1:
-        raise CheckpointError(
-            f"{root}: trained with decision_steps {meta['metadata']['decision_steps']} (beyond "
-            "the paper); an ONNX file does not carry a decision period yet, so it is not exported"
-        )
+    # the terms it is driven on travel with it: a runner holds each action as long
+    decision_steps, recovery = checkpoint_terms(meta, str(root / META_FILE))
     method = method or str(meta["method"])
     network = agent.online.eval()
-    model = onnx_model(network, metadata_props(method, kind, agent.actions, _source(root, meta)))
+    props = metadata_props(
+        method, kind, agent.actions, _source(root, meta), decision_steps, recovery
+    )
+    model = onnx_model(network, props)
     data = model.SerializeToString()
     policy, _, _ = onnx_policy_from_bytes(
         data, str(out), expected_actions=agent.actions, expected_observation=(kind, reader)

@@ -5,8 +5,10 @@ input ``obs`` (B, obs_dim) float32 -> output ``q`` (B, |A|) float32, the dueling
 V + A - mean A of every action, B free. Its ``metadata_props`` (string keys ``d3dwa.*``, see
 ``METADATA_KEYS``) say what a runner needs and nothing else can tell it: the method, the
 observation kind and the names of its entries, the action set (rebuilt here as an
-``ActionSet`` and checked against the caller's), the source checkpoint (weights digest, step
-counts, network widths) and the format version of this description.
+``ActionSet`` and checked against the caller's), the decision period and the recovery layer
+the policy trained inside (``policy_terms``; a file exported before they were recorded lacks
+them, which means period 1 and no recovery layer), the source checkpoint (weights digest,
+step counts, network widths) and the format version of this description.
 
 ``load_onnx_policy`` mirrors ``policy.load_policy``: (policy, action set, meta), and a
 ``CheckpointError`` of one line naming the file for anything that does not fit (not a file,
@@ -20,11 +22,11 @@ observations must come out finite. Then at every inference, a failure of the run
 output of the wrong shape or a NaN or inf Q-value is a CheckpointError naming the file:
 no action is ever chosen from values that are not numbers.
 
-This module imports numpy and the pure planning layer only, never torch; onnx and
-onnxruntime are imported when a file is loaded (the optional ``robot`` extra). The greedy
-action is the argmax of the Q-values (the lowest index on an exact tie, as numpy's argmax);
-it agrees with the torch and numpy policies except where two Q-values tie to within float32
-rounding.
+This module imports numpy, the pure planning layer and ``policy_terms`` only, never torch;
+onnx and onnxruntime are imported when a file is loaded (the optional ``robot`` extra). The
+greedy action is the argmax of the Q-values (the lowest index on an exact tie, as numpy's
+argmax); it agrees with the torch and numpy policies except where two Q-values tie to within
+float32 rounding.
 """
 
 from __future__ import annotations
@@ -40,13 +42,23 @@ import numpy as np
 
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.learning.agents.onnx_graph import GraphCost, check_graph
+from d3dwa_bullet.learning.agents.policy_terms import (
+    DEFAULT_DECISION_STEPS,
+    DEFAULT_RECOVERY,
+    decision_period,
+    trained_recovery,
+)
 from d3dwa_bullet.limits import MAX_POLICY_BYTES
 from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.progress import LAYOUTS, observation_layout
 
-ONNX_FORMAT_VERSION = 1
-"""Version of the metadata described here; a runner reads only its own version."""
+ONNX_FORMAT_VERSION = 2
+"""Version of the metadata written here. Version 2 added the decision period and the recovery
+layer: a runner from before them reads only version 1, so it refuses a new file in one line
+instead of driving a held policy every step."""
+READ_VERSIONS = (1, 2)
+"""Versions this runner reads; in a version-1 file the OPTIONAL_FIELDS are absent."""
 INPUT_NAME = "obs"
 OUTPUT_NAME = "q"
 METADATA_KEYS = {
@@ -57,8 +69,16 @@ METADATA_KEYS = {
     "obs_dim": "d3dwa.observation.dim",  # decimal, == len(layout)
     "actions": "d3dwa.actions",  # JSON of ActionSet.to_dict()
     "source": "d3dwa.source",  # JSON: the checkpoint's digest, steps, config, run
+    "decision_steps": "d3dwa.decision_steps",  # decimal: control steps each action is held
+    "recovery": "d3dwa.recovery",  # the recovery layer it trained inside: none | nav2
 }
 """Field -> metadata_props key of an exported policy."""
+OPTIONAL_FIELDS = {
+    "decision_steps": str(DEFAULT_DECISION_STEPS),
+    "recovery": DEFAULT_RECOVERY,
+}
+"""Fields version-1 exports lack -> the value their absence means (the paper's agent); a
+version-2 file must hold them."""
 INSTALL_HINT = "pip install 'd3dwa-bullet[robot]'"
 PROBE_OBSERVATIONS = 64
 """Sampled observations (and the all-zero one) a file's Q-values must be finite on to load."""
@@ -76,10 +96,16 @@ def sample_observations(layout: Sequence[str], n: int, seed: int) -> np.ndarray:
 
 
 def metadata_props(
-    method: str, kind: str, actions: ActionSet, source: Mapping[str, Any]
+    method: str,
+    kind: str,
+    actions: ActionSet,
+    source: Mapping[str, Any],
+    decision_steps: int = DEFAULT_DECISION_STEPS,
+    recovery: str = DEFAULT_RECOVERY,
 ) -> dict[str, str]:
-    """The metadata_props of a policy for ``method`` reading observation ``kind`` (the
-    exporter's half of the description ``read_metadata`` checks)."""
+    """The metadata_props of a policy for ``method`` reading observation ``kind``, trained
+    with ``decision_steps`` inside ``recovery`` (the exporter's half of the description
+    ``read_metadata`` checks)."""
     layout = observation_layout(kind)
     return {
         METADATA_KEYS["format_version"]: str(ONNX_FORMAT_VERSION),
@@ -89,12 +115,15 @@ def metadata_props(
         METADATA_KEYS["obs_dim"]: str(len(layout)),
         METADATA_KEYS["actions"]: json.dumps(actions.to_dict(), sort_keys=True),
         METADATA_KEYS["source"]: json.dumps(dict(source), sort_keys=True, allow_nan=False),
+        METADATA_KEYS["decision_steps"]: str(decision_steps),
+        METADATA_KEYS["recovery"]: recovery,
     }
 
 
 def read_metadata(props: Mapping[str, str], where: str) -> dict[str, Any]:
     """Parse and check metadata_props: {format_version, method, observation: {kind, layout,
-    dim}, actions: ActionSet, source}. CheckpointError naming ``where`` and the key."""
+    dim}, actions: ActionSet, source, decision_steps: int, recovery: str} (the last two
+    OPTIONAL_FIELDS). CheckpointError naming ``where``, the key and a bad value."""
     version_key = METADATA_KEYS["format_version"]
     if version_key not in props:
         ours = sorted(k for k in props if k.startswith("d3dwa."))
@@ -103,12 +132,15 @@ def read_metadata(props: Mapping[str, str], where: str) -> dict[str, Any]:
             + (f" (only {ours})" if ours else "")
             + "; export one with `d3dwa export --onnx DIR`"
         )
-    if props[version_key] != str(ONNX_FORMAT_VERSION):
+    versions = {str(v): v for v in READ_VERSIONS}
+    if props[version_key] not in versions:
         raise CheckpointError(
             f"{where}: metadata {version_key} is {props[version_key]!r}, this code reads "
-            f"version {ONNX_FORMAT_VERSION}"
+            f"versions {', '.join(versions)}"
         )
-    missing = [k for k in METADATA_KEYS.values() if k not in props]
+    version = versions[props[version_key]]
+    optional = OPTIONAL_FIELDS if version == 1 else {}
+    missing = [v for k, v in METADATA_KEYS.items() if k not in optional and v not in props]
     if missing:
         raise CheckpointError(f"{where}: metadata lacks {missing}")
 
@@ -137,12 +169,17 @@ def read_metadata(props: Mapping[str, str], where: str) -> dict[str, Any]:
     except ConfigError as err:
         raise CheckpointError(f"{where}: metadata {METADATA_KEYS['actions']}: {err}") from err
     source = parsed("source")
+    steps_key, recovery_key = METADATA_KEYS["decision_steps"], METADATA_KEYS["recovery"]
+    steps = props.get(steps_key, OPTIONAL_FIELDS["decision_steps"])
+    recovery = props.get(recovery_key, OPTIONAL_FIELDS["recovery"])
     return {
-        "format_version": ONNX_FORMAT_VERSION,
+        "format_version": version,
         "method": props[METADATA_KEYS["method"]],
         "observation": {"kind": kind, "layout": layout, "dim": len(layout)},
         "actions": actions,
         "source": source if isinstance(source, dict) else {},
+        "decision_steps": decision_period(steps, f"{where}: metadata {steps_key}"),
+        "recovery": trained_recovery(recovery, f"{where}: metadata {recovery_key}"),
     }
 
 
