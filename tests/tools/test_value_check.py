@@ -66,3 +66,15 @@ def test_epsilon_greedy_explores_on_its_own_seeded_stream() -> None:
     assert runs[0] == runs[1]  # the same seed, the same choices
     share = np.mean(np.array(runs[0]) != 7)
     assert 0.35 < share < 0.6  # about half explore (1 % of those draw 7 again)
+
+
+def test_validation_reads_each_seeds_own_eval_worlds(tmp_path: Path) -> None:
+    import json
+
+    seed = tmp_path / "seed-0"
+    shutil.copytree(policies_dir() / "d3dwa" / "seed-0", seed)
+    config = json.loads((seed / "config.json").read_text())
+    config["eval_worlds"] = ["TS2"]  # its validation, as its config says
+    (seed / "config.json").write_text(json.dumps(config))
+    result = value_check.check(tmp_path, worlds=(value_check.VALIDATION,))
+    assert list(result["seeds"][0]["outcomes"]) == ["TS2"]

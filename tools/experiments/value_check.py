@@ -4,6 +4,7 @@
     python -m tools.experiments.value_check runs/d3dwa/seed-0 --json  # one policy
     python -m tools.experiments.value_check DIR --episodes            # + a row per episode
     python -m tools.experiments.value_check DIR --epsilon 0.05        # acting as in training
+    python -m tools.experiments.value_check DIR --worlds validation   # its config's eval_worlds
 
 Each seed's greedy policy runs one noise-free episode on each of R1-R3 and three fresh
 generated layouts (generator seeds 2^31 + 1000, never drawn in training or by the sweep's
@@ -44,6 +45,11 @@ from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
 
 LAYOUT_SEED = UNSEEN_LAYOUT_SEED_BASE + 1000
 WORLDS = ("R1", "R2", "R3", *(f"{s}-style-s{LAYOUT_SEED}" for s in ("R1", "R2", "R3")))
+
+
+VALIDATION = "validation"
+"""``--worlds validation``: the eval_worlds of each seed's own config (its greedy validation
+layouts, the ones its training logged value ratios on)."""
 
 
 class NoPolicyError(D3DWAError, ValueError):
@@ -112,8 +118,9 @@ def check(path: Path, epsilon: float = 0.0, worlds: tuple[str, ...] = WORLDS) ->
     agents = {label: load(p) for label, p in policy_dirs(path).items()}
     seeds, states = [], []
     for label, (agent, config) in agents.items():
-        print(f"value_check: {label}: {len(worlds)} greedy episodes", file=sys.stderr)
-        eps = episodes_of(agent, config, epsilon, worlds)
+        where = tuple(config.eval_worlds) if worlds == (VALIDATION,) else worlds
+        print(f"value_check: {label}: {len(where)} greedy episodes", file=sys.stderr)
+        eps = episodes_of(agent, config, epsilon, where)
         gamma = agent.config.gamma
         q_taken = [taken_q_values(agent, e.obs, e.actions) for e in eps]
         rewards = [e.rewards for e in eps]
@@ -240,7 +247,8 @@ def main(argv: list[str] | None = None) -> int:
         "--worlds",
         default=",".join(WORLDS),
         help="comma-separated worlds of the episodes (default: R1-R3 and three fresh "
-        "layouts); e.g. TS1,TS2,TS3,TS4 to read the values on the training worlds",
+        "layouts); e.g. TS1,TS2,TS3,TS4 to read the values on the training worlds, or "
+        f"'{VALIDATION}' for each seed's own validation layouts (its config's eval_worlds)",
     )
     args = ap.parse_args(argv)
     worlds = tuple(w.strip() for w in args.worlds.split(",") if w.strip())
@@ -253,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         return 2
     try:
-        for world in worlds:  # every name checked before any episode runs
+        for world in worlds if worlds != (VALIDATION,) else ():  # checked before any episode
             resolve_world(world, allow_eval_worlds=True, where="--worlds")
         result = check(args.directory, args.epsilon, worlds)
     except (D3DWAError, OSError) as err:
