@@ -127,6 +127,8 @@ def cmd_drive(args: argparse.Namespace) -> int:
         stale_s=args.stale, watchdog_s=args.watchdog, lockstep=args.lockstep,
     )  # fmt: skip
     controller = make_controller(args.method, args.policy, onnx=args.onnx)
+    if controller.policy is not None and not args.json:  # its terms, as `run` prints them
+        print(f"policy: {controller.source}", flush=True)
     pipeline = ReplayPipeline(controller, estimator=args.estimator, config=config)
     live.warm_up(pipeline)
     recorder = None

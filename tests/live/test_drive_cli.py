@@ -173,5 +173,8 @@ def test_drive_with_an_onnx_policy_never_imports_torch(tmp_path):
     done = subprocess.run(
         [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
     )
-    assert done.stdout.split() == ["2", "False", "True"], done.stderr
+    *said, last = done.stdout.splitlines()
+    assert last.split() == ["2", "False", "True"], done.stderr
+    # the operator is told what drives, before anything is sent
+    assert said == [f"policy: {onnx} (ONNX, exported for d3dwa)"]
     assert "cannot reach a Kachaka" in done.stderr  # it got as far as connecting
