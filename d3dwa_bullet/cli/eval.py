@@ -111,6 +111,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         for w in worlds for r in runs for s in seeds
     ]  # fmt: skip
     check_distinct(jobs)  # before --out is made (evaluate checks again: it has other callers)
+    notes = policy_config_notes(runs, config.recovery_name, policy) if policy else []
     out = check_out_dir(args.out, subdirs=("logs", "figures"))
     names = [w.name for w in worlds]
     settings = {
@@ -124,7 +125,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     }  # fmt: skip
     if policy:
         settings["policy"] = str(Path(policy).resolve())
-        settings["policy_notes"] = policy_config_notes(runs, config.recovery_name, policy)
+        settings["policy_notes"] = notes
     with locked_dir(out):  # one writer: the episodes, then the tables and figures
         rows = evaluate(
             jobs, out, workers=workers, config=config, progress=not args.json,
@@ -133,7 +134,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         recovery = config.recovery_name
         table = eval_markdown(
             rows, methods, names, seeds, args.noise, recovery=recovery, renamed=renamed,
-            policy_notes=settings.get("policy_notes", []),
+            policy_notes=notes,
         )  # fmt: skip
         atomic_write_text(out / "table.md", table)
         atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names))

@@ -16,7 +16,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("dir", help="a results directory written by `d3dwa eval` or `d3dwa sweep`")
     p.add_argument(
         "--policies",
-        help="where learning curves live (default: the --policy an evaluation ran, else the shipped policies/)",
+        help="where learning curves live (default: the --policy an evaluation ran, else the "
+        "shipped policies/)",
     )
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_report)

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from d3dwa_bullet.errors import CheckpointError
+from d3dwa_bullet.errors import CheckpointError, D3DWAError
 from d3dwa_bullet.evaluation.policy_runs import PolicyRun
 from d3dwa_bullet.evaluation.results import differences
 from d3dwa_bullet.learning.training.config import TrainConfig, load_train_config
@@ -47,18 +47,23 @@ def _value(value: Any) -> str:
 
 def policy_config_note(run: PolicyRun, recovery: str, policy: str) -> str | None:
     """One Markdown line on the config ``run``'s policy folder was trained under, against
-    its method's committed config (``policy``: the ``--policy`` it came from); None when the run has no policy folder with a config.json
-    (a fixed method, the shipped policies, a bare checkpoint file)."""
+    its method's committed config (``policy``: the ``--policy`` it came from); None when the
+    run has no policy folder with a config.json (a fixed method, a bare checkpoint). A
+    config.json that does not read as a training config (another version's, say) does not
+    stop the run: the line says so instead."""
     if run.policy is None:
         return None
     config_file = Path(run.policy) / "config.json"
     if not config_file.is_file():
         return None
-    trained = TrainConfig.from_dict(load_json(config_file, CheckpointError), str(config_file))
-    committed_file = configs_dir() / f"{run.method}.yaml"
-    committed = load_train_config(committed_file)
-    diffs = sorted(differences(_plain(committed), _plain(trained)), key=lambda d: _order(d[0]))
     source = f"`{run.method}` from `{policy}`"
+    try:
+        data = load_json(config_file, CheckpointError)
+        trained = TrainConfig.from_dict(data, str(config_file))
+    except D3DWAError as err:
+        return f"{source}: its config could not be read as a training config ({err})."
+    committed = load_train_config(configs_dir() / f"{run.method}.yaml")
+    diffs = sorted(differences(_plain(committed), _plain(trained)), key=lambda d: _order(d[0]))
     if not diffs:
         line = f"{source}: trained under the committed `configs/{run.method}.yaml`."
     else:

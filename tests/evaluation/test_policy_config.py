@@ -58,6 +58,16 @@ def test_another_config_is_named_with_what_differs_learning_fields_first(tmp_pat
     assert "this evaluation runs" not in same
 
 
+def test_a_config_of_another_version_is_said_not_fatal(tmp_path):
+    folder = committed_seeds(tmp_path, seeds=(0,))
+    config = json.loads((folder / "seed-0" / "config.json").read_text())
+    config["warp_drive"] = True  # a field this version does not know
+    (folder / "seed-0" / "config.json").write_text(json.dumps(config))
+    (note,) = policy_config_notes(method_runs(["d3dwa"], str(folder)), "none", str(folder))
+    assert note.startswith(f"`d3dwa` from `{folder}`: its config could not be read")
+    assert "warp_drive" in note
+
+
 def test_a_folder_without_a_config_has_no_note(tmp_path):
     agent = D3QNAgent(ACTIONS_FULL, D3QNConfig(hidden=(8,)))
     path = save_checkpoint(tmp_path / "bare", agent, method="d3dwa")
