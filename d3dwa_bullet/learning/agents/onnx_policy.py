@@ -73,10 +73,7 @@ METADATA_KEYS = {
     "recovery": "d3dwa.recovery",  # the recovery layer it trained inside: none | nav2
 }
 """Field -> metadata_props key of an exported policy."""
-OPTIONAL_FIELDS = {
-    "decision_steps": str(DEFAULT_DECISION_STEPS),
-    "recovery": DEFAULT_RECOVERY,
-}
+OPTIONAL_FIELDS = {"decision_steps": str(DEFAULT_DECISION_STEPS), "recovery": DEFAULT_RECOVERY}
 """Fields version-1 exports lack -> the value their absence means (the paper's agent); a
 version-2 file must hold them."""
 INSTALL_HINT = "pip install 'd3dwa-bullet[robot]'"
