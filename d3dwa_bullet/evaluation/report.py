@@ -39,7 +39,7 @@ from d3dwa_bullet.evaluation.sweep import (
     sweep_figures,
     sweep_markdown,
 )
-from d3dwa_bullet.evaluation.tables import paper_table, recovery_note
+from d3dwa_bullet.evaluation.tables import paper_table, run_notes
 from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text
 from d3dwa_bullet.methods import LABELS
 from d3dwa_bullet.resources import policies_dir as shipped_policies_dir
@@ -86,9 +86,8 @@ def eval_markdown(
     )
     return (
         f"# {title or 'Evaluation: ' + ', '.join(worlds)}\n\n"
-        f"{recovery_note(recovery)}"
-        + "".join(f"{note}\n\n" for note in policy_notes)
-        + f"Noise profile: `{noise}`; evaluation seeds: {span}.\n\n"
+        f"{run_notes(recovery, policy_notes)}"
+        f"Noise profile: `{noise}`; evaluation seeds: {span}.\n\n"
         f"{keys}"
         "## Over training seeds\n\n"
         "A run is one training seed of a learned method (its episodes averaged) or one "
@@ -290,8 +289,8 @@ def _sweep_body(out: Path, meta: dict[str, Any], partial: bool) -> str:
     lines.append(f"\nProfiles: {', '.join(f'`{p}`' for p in settings.profiles)}.\n")
     lines.append(f"\n## Results{note}\n\n")
     by_name = {p.stem: p for p in figures}
-    tables = recovery_note(meta.get("settings", {}).get("recovery", "none"))
-    tables += "".join(f"{note}\n\n" for note in meta["settings"].get("policy_notes", []))
+    saved = meta["settings"]  # as written: it also holds what SweepSettings does not
+    tables = run_notes(saved.get("recovery", "none"), saved.get("policy_notes", []))
     tables += sweep_markdown(rows, settings)
     # Put each axis's figure above its table.
     for name in [*settings.axes, "profiles"]:

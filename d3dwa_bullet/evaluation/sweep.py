@@ -56,7 +56,7 @@ from d3dwa_bullet.evaluation.sweep_settings import (
     SweepSettings,
     episode_count,
 )
-from d3dwa_bullet.evaluation.tables import recovery_note, series_table
+from d3dwa_bullet.evaluation.tables import run_notes, series_table
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.limits import MAX_EPISODES
 from d3dwa_bullet.methods import make_controller
@@ -295,7 +295,6 @@ def run_sweep(
         if complete and figures:
             sweep_figures(rows, settings, out / "figures")
         if complete:
-            page = "# Noise sweep\n\n" + recovery_note(config.recovery_name)
-            page += "".join(f"{note}\n\n" for note in notes)
+            page = "# Noise sweep\n\n" + run_notes(config.recovery_name, notes)
             atomic_write_text(out / "sweep.md", page + sweep_markdown(rows, settings))
     return rows, complete

@@ -102,11 +102,12 @@ def series_table(series: Series, header: Sequence[Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def recovery_note(recovery: str) -> str:
-    """The line a page of a recovery-track directory opens with ('' on the paper track)."""
-    if recovery == "none":
-        return ""
-    return (
+def run_notes(recovery: str, policy_notes: Sequence[str] = ()) -> str:
+    """The lines a results page opens with: the recovery layer of a recovery-track directory
+    (none on the paper track), then the config of each policy brought with ``--policy``
+    (``policy_config``)."""
+    layer = (
         f"**Recovery layer `{recovery}`** (beyond the paper: progress checker and recovery "
         "behaviours around every method, docs/design.md#recovery).\n\n"
     )
+    return (layer if recovery != "none" else "") + "".join(f"{n}\n\n" for n in policy_notes)

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import ResultsError
-from d3dwa_bullet.learning.value_calibration import SMALL_RETURN
+from d3dwa_bullet.learning.value_calibration import ValueCalibration
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.methods import LEARNED
 from d3dwa_bullet.resources import policies_dir
@@ -61,11 +61,13 @@ def _decision_steps(folder: Path) -> int:
 
 
 def _value_text(values: dict[str, Any] | None) -> str:
+    """The figure the calibration rule judges (``ValueCalibration.judged_by``)."""
     if not values:
         return "--"
-    if values.get("ratio") is None or abs(values["mean_return"]) < SMALL_RETURN:
-        return f"gap {values['gap']:+.3f}"
-    return f"{values['ratio']:.2f}"
+    c = ValueCalibration(
+        values["mean_q"], values["mean_return"], values.get("pairs", 0), values.get("episodes", 0)
+    )
+    return f"gap {c.gap:+.3f}" if c.judged_by == "gap" else f"{c.ratio:.2f}"
 
 
 def markdown(records: Sequence[dict[str, Any]]) -> str:
