@@ -60,6 +60,18 @@ NO_POLICY = frozenset(FIXED) | frozenset(REFERENCE)
 #: Methods beyond the paper (SPEC sections 4 and 6): they sit beside the paper's methods and
 #: never change the paper's track, so the main job and its tables leave them out unless named.
 BEYOND_PAPER = frozenset({"d3dwa-pa", "d3dwa-pa-dr"})
+#: Learned methods that ship no policy, and why: a command that would load the shipped policy
+#: says this in its one line instead of "no policy". The seeds of the diverging learner were
+#: retired (docs/results.md#retired-seeds); a method leaves this map when the seeds of its
+#: committed config ship.
+RETIRED = "its seeds of the diverging learner were retired (docs/results.md#retired-seeds)"
+UNSHIPPED: dict[str, str] = {
+    "dqdwa": RETIRED,
+    "d3dwa-weights": RETIRED,
+    "d3dwa-dr": RETIRED,
+    "d3dwa-pa": RETIRED,
+    "d3dwa-pa-dr": RETIRED,
+}
 LABELS = {
     "dwa1": "DWA I (1,1,2)",
     "dwa2": "DWA II (1,2,1)",
@@ -254,6 +266,12 @@ def one_policy(name: str, policy_path: str | Path | None = None) -> tuple[Path, 
     seeds, its lowest seed, never one chosen by its results (``d3dwa eval`` and ``d3dwa
     sweep`` drive every seed). CheckpointError if there is none."""
     path = Path(policy_path) if policy_path is not None else default_policy_path(name)
+    if not path.exists() and policy_path is None and name in UNSHIPPED:
+        raise CheckpointError(
+            f"{path}: method {name!r} ships no policy: {UNSHIPPED[name]}; train its seeds with "
+            f"`d3dwa train --method {name} --seeds 0-4 --export {path}` "
+            "or pass --policy PATH"
+        )
     if not path.exists():
         raise CheckpointError(
             f"{path}: no policy for method {name!r}; train one with `d3dwa train --method {name}` "

@@ -111,7 +111,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         for w in worlds for r in runs for s in seeds
     ]  # fmt: skip
     check_distinct(jobs)  # before --out is made (evaluate checks again: it has other callers)
-    notes = policy_config_notes(runs, config.recovery_name, policy) if policy else []
+    notes = policy_config_notes(runs, config.recovery_name, policy)
     out = check_out_dir(args.out, subdirs=("logs", "figures"))
     names = [w.name for w in worlds]
     settings = {
@@ -125,7 +125,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     }  # fmt: skip
     if policy:
         settings["policy"] = str(Path(policy).resolve())
-        settings["policy_notes"] = notes
+    settings["policy_notes"] = notes
     with locked_dir(out):  # one writer: the episodes, then the tables and figures
         rows = evaluate(
             jobs, out, workers=workers, config=config, progress=not args.json,

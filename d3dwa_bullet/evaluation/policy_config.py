@@ -45,23 +45,28 @@ def _value(value: Any) -> str:
     return "unset" if value is None else str(value)
 
 
-def policy_config_note(run: PolicyRun, recovery: str, policy: str) -> str | None:
+def policy_config_note(run: PolicyRun, recovery: str, policy: str | None) -> str | None:
     """One Markdown line on the config ``run``'s policy folder was trained under, against
     its method's committed config (``policy``: the ``--policy`` it came from); None when the
     run has no policy folder with a config.json (a fixed method, a bare checkpoint). A
     config.json that does not read as a training config (another version's, say) does not
-    stop the run: the line says so instead."""
+    stop the run: the line says so instead. A shipped policy (``policy`` None) was trained
+    under the committed config (tests/learning/test_shipped_policies.py): its line only
+    says when it trained inside a recovery layer this evaluation runs without, or the reverse."""
     if run.policy is None:
         return None
     config_file = Path(run.policy) / "config.json"
     if not config_file.is_file():
         return None
-    source = f"`{run.method}` from `{policy}`"
+    source = f"`{run.method}` from `{policy}`" if policy else f"The shipped `{run.method}`"
     try:
         data = load_json(config_file, CheckpointError)
         trained = TrainConfig.from_dict(data, str(config_file))
     except D3DWAError as err:
         return f"{source}: its config could not be read as a training config ({err})."
+    if policy is None:
+        layer = _layer(trained.recovery, recovery)
+        return f"{source}: trained under `configs/{run.method}.yaml`.{layer}" if layer else None
     committed = load_train_config(configs_dir() / f"{run.method}.yaml")
     diffs = sorted(differences(_plain(committed), _plain(trained)), key=lambda d: _order(d[0]))
     if not diffs:
@@ -75,17 +80,21 @@ def policy_config_note(run: PolicyRun, recovery: str, policy: str) -> str | None
             f"{source}: trained under its own config (`{config_file}`), not the committed "
             f"`configs/{run.method}.yaml`: {named}{more}."
         )
-    if trained.recovery != recovery:
-        line += (
-            f" It was trained with the recovery layer `{trained.recovery}`; this evaluation runs "
-            f"with `{recovery}`."
-        )
-    return line
+    return line + _layer(trained.recovery, recovery)
 
 
-def policy_config_notes(runs: Sequence[PolicyRun], recovery: str, policy: str) -> list[str]:
-    """:func:`policy_config_note` for the first training seed of each method brought with
-    ``--policy`` (the seeds of one method share their config: ``policy_runs`` checks)."""
+def _layer(trained: str, recovery: str) -> str:
+    """The sentence on a recovery layer the policy trained in and this evaluation does not
+    run (or the reverse); '' when they agree."""
+    if trained == recovery:
+        return ""
+    return f" It was trained with the recovery layer `{trained}`; this evaluation runs with `{recovery}`."
+
+
+def policy_config_notes(runs: Sequence[PolicyRun], recovery: str, policy: str | None) -> list[str]:
+    """:func:`policy_config_note` for the first training seed of each learned method, brought
+    with ``--policy`` or shipped (the seeds of one method share their config:
+    ``policy_runs`` checks)."""
     notes, seen = [], set()
     for run in runs:
         if run.method in seen:

@@ -282,10 +282,9 @@ def run_sweep(
     jobs = sweep_jobs(settings, policy)
     meta = {"kind": "sweep", "command": command} | settings.to_dict()
     meta["policy_digests"] = policy_digests(runs)
-    notes: list[str] = []
     if policy:
         meta["policy"] = str(Path(policy).resolve())
-        notes = meta["policy_notes"] = policy_config_notes(runs, config.recovery_name, policy)
+    notes = meta["policy_notes"] = policy_config_notes(runs, config.recovery_name, policy)
     with locked_dir(out):  # one writer: the episodes, then the page and figures
         evaluate(jobs, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta)
         keys = {j.key for j in jobs}

@@ -45,8 +45,9 @@ def test_an_alias_bomb_profile_is_one_line_and_fast(tmp_path, capsys):
     [
         (["eval", "--seeds", "99999999999", "--methods", "dwa1"],
          "--seeds: 99999999999 seeds is over the limit of 10000"),
-        (["eval", "--seeds", "10000", "--methods", "dwa1,dwa2,dwa3,dqdwa,d3dwa,d3dwa-dr"],
-         r"eval: \d+ episodes is over the limit of 1000000"),  # 8 worlds x 18 runs x 10000
+        (["eval", "--seeds", "10000", "--methods", "dwa1,dwa2,dwa3,random,d3dwa", "--worlds",
+          "TS1,TS2,TS3,TS4,US1,H1,H2,H3,R1,R2,R3,R1-style-s1"],
+         r"eval: \d+ episodes is over the limit of 1000000"),  # 12 worlds x 9 runs x 10000
         (["eval", "--policy-seeds", "0-99999999999", "--methods", "d3dwa"],
          "--policy-seeds: 100000000000 seeds is over the limit of 10000"),
         (["eval", "--workers", "100000", "--methods", "dwa1"],

@@ -37,24 +37,41 @@ def committed_seeds(root: Path, seeds=(0, 1), **changes) -> Path:
 
 def test_seeds_of_the_committed_config_say_so(tmp_path):
     folder = str(committed_seeds(tmp_path))
-    notes = policy_config_notes(method_runs(["d3dwa"], folder), "none", folder)
+    notes = policy_config_notes(method_runs(["d3dwa"], folder), "nav2", folder)
     assert notes == [f"`d3dwa` from `{folder}`: trained under the committed `configs/d3dwa.yaml`."]
+    # the committed config trains inside the layer: an evaluation without it says so
+    (bare,) = policy_config_notes(method_runs(["d3dwa"], folder), "none", folder)
+    assert bare == notes[0] + (
+        " It was trained with the recovery layer `nav2`; this evaluation runs with `none`."
+    )
+
+
+def test_a_shipped_policy_is_named_only_for_a_layer_it_did_not_train_in(tmp_path):
+    folder = committed_seeds(tmp_path)  # as policies/ holds them: the committed config
+    runs = method_runs(["dwa3", "d3dwa"], str(folder))
+    trained_in = load_train_config(configs_dir() / "d3dwa.yaml").recovery
+    other = "none" if trained_in != "none" else "nav2"
+    assert policy_config_notes(runs, trained_in, None) == []
+    assert policy_config_notes(runs, other, None) == [
+        "The shipped `d3dwa`: trained under `configs/d3dwa.yaml`. It was trained with the "
+        f"recovery layer `{trained_in}`; this evaluation runs with `{other}`."
+    ]
 
 
 def test_another_config_is_named_with_what_differs_learning_fields_first(tmp_path):
-    folder = str(committed_seeds(tmp_path, **{"agent.gamma": 0.95, "eval_every": 500,
-                                              "decision_steps": 10, "recovery": "nav2"}))  # fmt: skip
-    (note,) = policy_config_notes(method_runs(["dwa1", "d3dwa"], folder), "none", folder)
+    folder = str(committed_seeds(tmp_path, **{"agent.gamma": 0.9, "eval_every": 500,
+                                              "decision_steps": 1, "recovery": "none"}))  # fmt: skip
+    (note,) = policy_config_notes(method_runs(["dwa1", "d3dwa"], folder), "nav2", folder)
     assert note.startswith(
         f"`d3dwa` from `{folder}`: trained under its own config (`{folder}/seed-0/config.json`), "
-        "not the committed `configs/d3dwa.yaml`: decision_steps 10 (committed 1), recovery nav2 "
-        "(committed none), agent.gamma 0.95 (committed 0.997), eval_every 500 (committed 20000)."
+        "not the committed `configs/d3dwa.yaml`: decision_steps 1 (committed 10), recovery none "
+        "(committed nav2), agent.gamma 0.9 (committed 0.95), eval_every 500 (committed 2000)."
     )
     assert note.endswith(
-        "It was trained with the recovery layer `nav2`; this evaluation runs with `none`."
+        "It was trained with the recovery layer `none`; this evaluation runs with `nav2`."
     )
     # the same layer in evaluation: nothing to warn about
-    (same,) = policy_config_notes(method_runs(["d3dwa"], folder), "nav2", folder)
+    (same,) = policy_config_notes(method_runs(["d3dwa"], folder), "none", folder)
     assert "this evaluation runs" not in same
 
 
@@ -79,14 +96,14 @@ def test_a_folder_without_a_config_has_no_note(tmp_path):
 def test_a_policy_of_another_config_runs_and_its_page_names_it(
     command, one_second_world, tmp_path, capsys
 ):
-    folder = committed_seeds(tmp_path, seeds=(0,), **{"agent.lr": 0.0001})
+    folder = committed_seeds(tmp_path, seeds=(0,), **{"agent.lr": 0.0003})
     out = tmp_path / "out"
     extra = {"eval": [], "sweep": ["--styles", "", "--layouts", "0", "--axes", "",
                                    "--profiles", "none", "--workers", "1"]}[command]  # fmt: skip
     code, text, err = run(capsys, command, "--methods", "d3dwa", "--policy", folder, "--worlds",
                           one_second_world, "--seeds", "1", "--out", out, *extra)  # fmt: skip
     assert code == 0, err
-    line = "agent.lr 0.0001 (committed 0.0003)."
+    line = "agent.lr 0.0003 (committed 0.0001)."
     page = {"eval": "table.md", "sweep": "sweep.md"}[command]
     assert line in (out / page).read_text()
     if command == "eval":

@@ -101,11 +101,19 @@ def test_cli_trains_seeds_and_refuses_mixed_options(tiny: str, tmp_path: Path, c
 def test_committed_configs_share_one_budget_and_a_rule_fixed_in_advance(method: str) -> None:
     config = load_train_config(configs_dir() / f"{method}.yaml")
     reference = load_train_config(configs_dir() / "d3dwa.yaml")
-    assert config.total_steps == reference.total_steps == 250_000
-    assert config.keep == "best" and config.eval_every > 0
+    # one budget in control steps (0.1 s), whatever the decision period
+    assert config.total_steps * config.decision_steps == 250_000
+    assert (config.decision_steps, config.recovery) == (
+        reference.decision_steps,
+        reference.recovery,
+    )
+    assert config.keep == "final" and config.eval_every > 0
     assert config.eval_worlds == reference.eval_worlds
     if config.family == "d3qn":  # one agent config: only the action set and the noise differ
         assert config.agent == reference.agent
+    else:  # the tabular agent on the same horizon and exploration schedule
+        assert config.agent.gamma == reference.agent.gamma  # type: ignore[union-attr]
+        assert config.agent.eps_decay == reference.agent.eps_decay  # type: ignore[union-attr]
 
 
 def test_keep_best_refuses_worlds_a_table_reports(tiny: str, tmp_path: Path) -> None:
@@ -118,8 +126,9 @@ def test_keep_best_refuses_worlds_a_table_reports(tiny: str, tmp_path: Path) -> 
         assert not (tmp_path / world / "config.json").exists()
     ok = _config(tiny, keep="best", eval_every=20, eval_worlds=("R2-style-s3",), total_steps=20)
     assert train(ok, tmp_path / "ok", progress=False)["status"] == "done"
-    # a shipped seed's own config loads and names the rule it was selected by
-    assert load_train_config(policies_dir() / "d3dwa" / "seed-0" / "config.json").keep == "best"
+    # a shipped seed's own config loads and names the rule of its committed config
+    shipped = load_train_config(policies_dir() / "d3dwa" / "seed-0" / "config.json")
+    assert shipped.keep == load_train_config(configs_dir() / "d3dwa.yaml").keep
 
 
 def test_one_episode_of_a_folder_of_seeds_drives_its_first_seed(tmp_path: Path) -> None:

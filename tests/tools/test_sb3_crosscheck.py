@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
+from d3dwa_bullet.learning.training import load_train_config
 from d3dwa_bullet.learning.value_calibration import calibrate, discounted_returns
 from d3dwa_bullet.resources import configs_dir
 from tools.experiments.sb3_crosscheck import DEFAULT_CONFIG, main
@@ -32,10 +33,12 @@ def test_a_tiny_run_gives_finite_consistent_figures(tmp_path, capsys) -> None:
     assert main(["--config", str(config), "--steps", "300", "--seed", "1", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     (episode,) = out["episodes"]
-    gamma = out["gamma"]
-    assert gamma == out["hyperparameters"]["gamma"] == 0.997
-    assert out["hyperparameters"]["target_update_interval"] == 2  # once per gradient step
-    assert out["gradient_steps"] == (300 - 100) // 2
+    gamma, agent = out["gamma"], load_train_config(config).agent
+    assert gamma == out["hyperparameters"]["gamma"] == agent.gamma
+    assert out["hyperparameters"]["n_steps"] == agent.n_step  # type: ignore[union-attr]
+    # SB3 updates its target once per gradient step, one every train_freq env steps
+    assert out["hyperparameters"]["target_update_interval"] == agent.train_freq  # type: ignore[union-attr]
+    assert out["gradient_steps"] == (300 - 100) // agent.train_freq  # type: ignore[union-attr]
     rewards, q = np.array(episode["rewards"]), np.array(episode["q_taken"])
     assert len(rewards) == len(q) == episode["steps"] > 0
     assert np.isfinite(rewards).all() and np.isfinite(q).all()

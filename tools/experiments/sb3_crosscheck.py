@@ -9,8 +9,8 @@ episode per evaluation world and seed (the config's ``eval_worlds`` / ``eval_see
 (``value_calibration.calibrate``, the config's gamma). If SB3's values track its returns
 where the D3QN's run far above them, the overestimation is the D3QN's, not the task's.
 
-What is matched: gamma, learning rate, batch size, replay size (capped at the budget),
-learning_starts, one gradient step every ``train_freq`` env steps, a Polyak update with
+What is matched: gamma, n-step returns (``n_step``), learning rate, batch size, replay size
+(capped at the budget), learning_starts, one gradient step every ``train_freq`` env steps, a Polyak update with
 ``tau_soft`` after every gradient step, Huber loss (SB3's smooth L1: delta 1), gradient
 clip, hidden widths, and the exponential epsilon schedule in gradient steps (installed as
 SB3's exploration schedule). What is not: SB3's DQN is neither dueling nor double (its
@@ -66,6 +66,7 @@ def sb3_hyperparameters(agent: D3QNConfig, steps: int) -> dict[str, Any]:
         "learning_starts": agent.learning_starts,
         "train_freq": agent.train_freq,
         "gradient_steps": 1,
+        "n_steps": agent.n_step,  # n-step returns (SB3 >= 2.7): 1 is the one-step target
         "tau": agent.tau_soft,
         # SB3 updates the target every target_update_interval env steps: once per gradient step
         "target_update_interval": agent.train_freq,
