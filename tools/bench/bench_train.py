@@ -4,6 +4,9 @@
     {"env_steps_per_s": ..., "updates_per_s": ..., "loop_steps_per_s": ..., "n_envs": ...,
      "minutes_per_250k_steps": ..., "timing_s": {...}}
 
+Every count is in control steps (0.1 s), also for a config that decides every
+``decision_steps`` of them (the trainer counts decisions; they are converted here).
+
 Runs ``train()`` for a short budget (default 3000 control steps of the committed d3dwa
 config: TS1-TS4 + generated R-style layouts, 128x128 dueling network, one gradient step
 per ``train_freq`` env steps) into a temporary directory, without evaluation or
@@ -46,22 +49,25 @@ SHIPPED_BUDGET = 250_000
 def run(steps: int = 3000, config: str | Path | None = None, n_envs: int | None = None) -> dict:
     """Train ``steps`` control steps and return the throughput figures."""
     base = load_train_config(configs_dir() / "d3dwa.yaml" if config is None else config)
-    agent = replace(base.agent, learning_starts=min(base.agent.learning_starts, steps // 4))
-    cfg = replace(base, total_steps=steps, agent=agent, eval_every=0, checkpoint_every=0,
+    k = base.decision_steps  # control steps per decision: the trainer counts decisions
+    decisions = max(1, steps // k)
+    agent = replace(base.agent, learning_starts=min(base.agent.learning_starts, decisions // 4))
+    cfg = replace(base, total_steps=decisions, agent=agent, eval_every=0, checkpoint_every=0,
                   keep="final", n_envs=base.n_envs if n_envs is None else n_envs)  # fmt: skip
     with tempfile.TemporaryDirectory() as tmp:
         s = train(cfg, Path(tmp) / "bench", progress=False)
-    loop = s["steps_per_s"]
+    loop = s["steps_per_s"] * k  # control steps per second, whatever the decision period
     timing = s["timing_s"]
     step = timing.get("env/step") or 0.0
     noise_path = timing.get("env/estimator", 0.0) + timing.get("env/noise", 0.0)
     return {
-        "env_steps_per_s": s["env_steps_per_s"],
+        "env_steps_per_s": s["env_steps_per_s"] * k,
         "updates_per_s": s["updates_per_s"],
         "loop_steps_per_s": loop,
         "n_envs": cfg.n_envs,
         "minutes_per_250k_steps": round(SHIPPED_BUDGET / loop / 60, 2) if loop else None,
-        "env_steps": s["env_steps"],
+        "env_steps": s["env_steps"] * k,
+        "decision_steps": k,
         "updates": s["train_steps"],
         "wall_time_s": s["wall_time_s"],
         "cpu_time_s": s["cpu_time_s"],
