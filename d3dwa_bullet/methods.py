@@ -268,8 +268,8 @@ def one_policy(name: str, policy_path: str | Path | None = None) -> tuple[Path, 
     if not path.exists() and policy_path is None and name in UNSHIPPED:
         raise CheckpointError(
             f"{path}: method {name!r} ships no policy: {UNSHIPPED[name]}; train its seeds with "
-            f"`d3dwa train --method {name} --seeds 0-4 --export {path}` "
-            "or pass --policy PATH"
+            f"`d3dwa train --method {name} --seeds 0-4 --out runs/{name} --export "
+            f"my_policies/{name}` and pass --policy my_policies/{name}"
         )
     if not path.exists():
         raise CheckpointError(
