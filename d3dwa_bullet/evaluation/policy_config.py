@@ -15,6 +15,7 @@ from typing import Any
 from d3dwa_bullet.errors import CheckpointError, D3DWAError
 from d3dwa_bullet.evaluation.policy_runs import PolicyRun
 from d3dwa_bullet.evaluation.results import differences
+from d3dwa_bullet.learning.agents.policy_terms import checkpoint_terms
 from d3dwa_bullet.learning.training.config import TrainConfig, load_train_config
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.resources import configs_dir
@@ -58,15 +59,18 @@ def policy_config_note(run: PolicyRun, recovery: str, policy: str | None) -> str
     config_file = Path(run.policy) / "config.json"
     if not config_file.is_file():
         return None
-    source = f"`{run.method}` from `{policy}`" if policy else f"The shipped `{run.method}`"
+    if policy is None:  # the layer its meta.json records: no config to build at start-up
+        meta_file = Path(run.policy) / "meta.json"
+        _, trained_in = checkpoint_terms(load_json(meta_file, CheckpointError), str(meta_file))
+        layer = _layer(trained_in, recovery)
+        shipped = f"The shipped `{run.method}`: trained under `configs/{run.method}.yaml`."
+        return f"{shipped}{layer}" if layer else None
+    source = f"`{run.method}` from `{policy}`"
     try:
         data = load_json(config_file, CheckpointError)
         trained = TrainConfig.from_dict(data, str(config_file))
     except D3DWAError as err:
         return f"{source}: its config could not be read as a training config ({err})."
-    if policy is None:
-        layer = _layer(trained.recovery, recovery)
-        return f"{source}: trained under `configs/{run.method}.yaml`.{layer}" if layer else None
     committed = load_train_config(configs_dir() / f"{run.method}.yaml")
     diffs = sorted(differences(_plain(committed), _plain(trained)), key=lambda d: _order(d[0]))
     if not diffs:

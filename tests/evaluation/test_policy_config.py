@@ -25,12 +25,13 @@ def committed_seeds(root: Path, seeds=(0, 1), **changes) -> Path:
     ``changes`` (dotted names, e.g. ``agent.gamma``) applied to every seed."""
     for k in seeds:
         agent = D3QNAgent(ACTIONS_FULL, D3QNConfig(hidden=(8,), seed=k))
-        path = save_checkpoint(root / "d3dwa" / f"seed-{k}", agent, method="d3dwa")
         config = load_train_config(configs_dir() / "d3dwa.yaml").to_dict()
         config["seed"] = config["agent"]["seed"] = k
         for name, value in changes.items():
             *parent, leaf = name.split(".")
             (config[parent[0]] if parent else config)[leaf] = value
+        terms = {n: config[n] for n in ("decision_steps", "recovery")}  # as training records them
+        path = save_checkpoint(root / "d3dwa" / f"seed-{k}", agent, terms, method="d3dwa")
         (path / "config.json").write_text(json.dumps(config))
     return root / "d3dwa"
 
