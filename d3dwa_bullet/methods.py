@@ -66,7 +66,6 @@ BEYOND_PAPER = frozenset({"d3dwa-pa", "d3dwa-pa-dr"})
 #: committed config ship.
 RETIRED = "its seeds of the diverging learner were retired (docs/results.md#retired-seeds)"
 UNSHIPPED: dict[str, str] = {
-    "d3dwa-dr": RETIRED,
     "d3dwa-pa": RETIRED,
     "d3dwa-pa-dr": RETIRED,
 }

@@ -83,6 +83,13 @@ GOLDEN_ACTIONS = {
         3: [96, 7, 70, 90, 18, 9],
         4: [40, 47, 73, 45, 71, 61],
     },
+    "d3dwa-dr": {
+        0: [69, 60, 6, 74, 27, 7],
+        1: [10, 10, 25, 43, 14, 45],
+        2: [20, 36, 64, 79, 3, 87],
+        3: [38, 36, 84, 64, 49, 51],
+        4: [19, 88, 71, 27, 12, 88],
+    },
 }
 """Greedy action index of each shipped seed for each of OBSERVATIONS, recorded from the
 weights in policies/. After shipping new seeds on purpose, regenerate them with
