@@ -10,14 +10,14 @@ episode per evaluation world and seed (the config's ``eval_worlds`` / ``eval_see
 where the D3QN's run far above them, the overestimation is the D3QN's, not the task's.
 
 What is matched: gamma, n-step returns (``n_step``), learning rate, batch size, replay size
-(capped at the budget), learning_starts, one gradient step every ``train_freq`` env steps,
-a Polyak update with ``tau_soft`` after every gradient step, Huber loss (SB3's smooth L1:
+(capped at the budget), learning_starts, one gradient step every ``train_freq`` env steps, a
+Polyak update with ``tau_soft`` after every gradient step, Huber loss (SB3's smooth L1:
 delta 1), gradient clip, hidden widths, and the exponential epsilon schedule in gradient
-steps (installed as SB3's exploration schedule). What is not: SB3's DQN is neither dueling nor double (its
-target is r + gamma max_a Q_target(s', a)); it runs one env (the config's n_envs is not
-mirrored; the update-to-data ratio per env step is the same); the trainer's adaptive
-curriculum is not run (tasks are drawn with the env's base probabilities, as the uniform
-curriculum does); truncation by the time limit is bootstrapped (SB3's
+steps (installed as SB3's exploration schedule). What is not: SB3's DQN is neither dueling
+nor double (its target is r + gamma max_a Q_target(s', a)); it runs one env (the config's
+n_envs is not mirrored; the update-to-data ratio per env step is the same); the trainer's
+adaptive curriculum is not run (tasks are drawn with the env's base probabilities, as the
+uniform curriculum does); truncation by the time limit is bootstrapped (SB3's
 ``handle_timeout_termination``), as the D3QN does.
 
     python -m tools.experiments.sb3_crosscheck --steps 40000 --seed 0 --json
