@@ -107,7 +107,7 @@ def figure(
     import matplotlib.pyplot as plt
 
     methods = list(dict.fromkeys(r["method"] for r in records))
-    fig, axes = plt.subplots(1, len(noises), figsize=(3.2 * len(noises), 3.8), sharey=True)
+    fig, axes = plt.subplots(1, len(noises), figsize=(3.2 * len(noises), 4.6), sharey=True)
     axes = [axes] if len(noises) == 1 else list(axes)
     colours = plt.get_cmap("tab10").colors
     for ax, noise in zip(axes, noises, strict=True):
@@ -126,7 +126,7 @@ def figure(
         ax.set_xticks(range(len(methods)))
         ax.set_xticklabels([LABELS.get(m, m) for m in methods], rotation=60, ha="right",
                            fontsize=7)  # fmt: skip
-    axes[0].set_ylabel("episodes that failed, by primary mode [%]" + note)
+    axes[0].set_ylabel("failed episodes [%],\nby primary mode" + note)
     fig.legend(loc="upper center", ncol=len(MODES), fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0, 1, 0.92))
     path.parent.mkdir(parents=True, exist_ok=True)
