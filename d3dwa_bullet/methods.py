@@ -34,8 +34,10 @@ FIXED: dict[str, PlannerAction] = {
     "dwa3": PlannerAction(2.0, 1.0, 1.0, 4.0),
 }
 #: Reference methods and the action set each draws from uniformly, every control step: a floor
-#: a learned method must clear (docs/design.md#methods). They need no policy.
-REFERENCE: dict[str, ActionSet] = {"random": ACTIONS_FULL}
+#: a learned method must clear (docs/design.md#methods). They need no policy. ``random`` is
+#: the floor of the 100-action methods, ``random-weights`` of the 25-action ones (SPEC 6:
+#: uniform over the method's action set).
+REFERENCE: dict[str, ActionSet] = {"random": ACTIONS_FULL, "random-weights": ACTIONS_WEIGHTS_ONLY}
 #: The tag that keeps a reference method's draws a stream of their own: its generator is
 #: seeded by SeedSequence([episode seed, RANDOM_STREAM]), which no other draw of an episode
 #: uses (noise and the env's tasks spawn from SeedSequence(episode seed)). ASCII "rand".
@@ -74,6 +76,7 @@ LABELS = {
     "dwa2": "DWA II (1,2,1)",
     "dwa3": "DWA III (2,1,1)",
     "random": f"Random (uniform over {REFERENCE['random'].size} actions)",
+    "random-weights": f"Random (uniform over {REFERENCE['random-weights'].size} actions)",
     "dqdwa": "DQDWA",
     "d3dwa-weights": "D3DWA (w/o horizon)",
     "d3dwa": "D3DWA",

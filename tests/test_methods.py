@@ -1,5 +1,6 @@
-"""The method registry's `random` reference method: uniform over the 100 actions, drawn from
-its own stream of the episode seed, a method without a policy (docs/design.md#methods)."""
+"""The method registry's reference methods: `random` uniform over the 100 actions and
+`random-weights` over the 25 weights-only ones, drawn from their own stream of the episode
+seed, methods without a policy (docs/design.md#methods)."""
 
 from __future__ import annotations
 
@@ -13,13 +14,15 @@ from d3dwa_bullet.evaluation.policy_runs import PolicyRun, method_runs, policy_d
 from d3dwa_bullet.methods import (
     FIXED,
     LABELS,
+    LEARNED,
     METHODS,
     NO_POLICY,
+    REFERENCE,
     Controller,
     make_controller,
     method_family,
 )
-from d3dwa_bullet.planning.actions import ACTIONS_FULL
+from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
 
 OBS = np.zeros(12)
 
@@ -40,6 +43,25 @@ def test_random_is_a_reference_method_without_a_policy():
     assert controller.actions == ACTIONS_FULL and controller.source == "reference"
     assert method_runs(["dwa1", "random"]) == [PolicyRun("dwa1"), PolicyRun("random")]
     assert policy_digests(method_runs(["random"])) == {}
+
+
+def test_random_weights_draws_uniformly_over_the_25_weights_only_actions():
+    assert method_family("random-weights") == "reference" and "random-weights" in NO_POLICY
+    assert LABELS["random-weights"] == "Random (uniform over 25 actions)"
+    controller = make_controller("random-weights")
+    assert controller.actions == ACTIONS_WEIGHTS_ONLY and controller.source == "reference"
+    controller.reset(7)
+    picked = [controller(OBS) for _ in range(2500)]
+    assert all(action == ACTIONS_WEIGHTS_ONLY.decode(i) for i, action in picked)
+    assert {action.tau for _, action in picked} == {4.0}  # the weights-only set's one horizon
+    counts = np.bincount([i for i, _ in picked], minlength=25)
+    assert counts.size == 25 and counts.min() > 60  # 100 expected a cell
+
+
+def test_every_learned_action_set_has_a_reference_drawing_from_it():
+    """SPEC 6: the floor is uniform over the method's own action set."""
+    for method, actions in LEARNED.items():
+        assert any(ref == actions for ref in REFERENCE.values()), method
 
 
 @pytest.mark.parametrize("method", ["random", "dwa1"])
@@ -164,3 +186,13 @@ def test_a_held_controller_chooses_every_k_steps_and_a_reset_ends_the_hold():
     assert held(np.full(12, 9.0))[0] == 4 and calls[-1] == 9.0
     plain = Controller("d3dwa", policy=policy, actions=ACTIONS_FULL)
     assert [plain(np.zeros(12))[0] for _ in range(2)] == [5, 6]
+
+
+def test_each_reference_method_plots_in_its_own_grey_and_the_others_keep_their_colours():
+    from d3dwa_bullet.evaluation.plotting import method_colours
+
+    colours = method_colours(["dwa1", "random", "random-weights", "d3dwa"])
+    greys = [colours["random"], colours["random-weights"]]
+    assert all(c[0] == c[1] == c[2] for c in greys) and greys[0] != greys[1]
+    assert colours["d3dwa"] == method_colours(["d3dwa"])["d3dwa"]
+    assert colours["dwa1"][:3] != colours["dwa1"][0:1] * 3

@@ -157,8 +157,8 @@ def trajectory_figure(
     return _save(fig, path)
 
 
-REFERENCE_COLOUR = (0.45, 0.45, 0.45, 1.0)
-"""The colour of a reference method (``random``): grey, a floor rather than a contender."""
+REFERENCE_COLOURS = {"random": (0.45, 0.45, 0.45, 1.0), "random-weights": (0.72, 0.72, 0.72, 1.0)}
+"""The colours of the reference methods: greys, floors rather than contenders."""
 _COLOURED = tuple(m for m in METHODS if m not in REFERENCE)
 
 
@@ -168,7 +168,7 @@ def method_colours(methods: Sequence[str]) -> dict[str, tuple]:
     changes no other method's colour)."""
     cmap = plt.get_cmap("tab10")
     return {
-        m: REFERENCE_COLOUR
+        m: REFERENCE_COLOURS[m]
         if m in REFERENCE
         else cmap(_COLOURED.index(m) % 10 if m in _COLOURED else i % 10)
         for i, m in enumerate(methods)

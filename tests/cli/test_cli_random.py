@@ -75,7 +75,7 @@ def test_a_negative_seed_is_refused_naming_it(one_second_world, capsys):
 
 
 def test_the_default_methods_put_random_after_the_fixed_dwas():
-    assert default_methods()[:4] == ["dwa1", "dwa2", "dwa3", "random"]
+    assert default_methods()[:5] == ["dwa1", "dwa2", "dwa3", "random", "random-weights"]
 
 
 @pytest.fixture(scope="module")
