@@ -111,7 +111,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         summary = train(
             config, out, resume=args.resume, progress=not (args.no_progress or args.json)
         )
-    except KeyboardInterrupt:  # a second Ctrl-C: stopped without saving
+    except KeyboardInterrupt:  # a second Ctrl-C or SIGTERM: stopped without saving
         print(
             f"d3dwa: training aborted; the last checkpoint ({out / 'checkpoints' / 'latest'}) "
             "is intact: resume with --resume",
@@ -177,7 +177,7 @@ def _train_seeds(args: argparse.Namespace) -> int:
     try:
         outcomes = train_seeds(config, args.out, seeds, resume=args.resume, export=args.export,
                                progress=not quiet, on_seed=report, ray_address=args.ray)  # fmt: skip
-    except KeyboardInterrupt:  # a second Ctrl-C: stopped without saving
+    except KeyboardInterrupt:  # a second Ctrl-C or SIGTERM: stopped without saving
         print(
             f"d3dwa: training aborted; resume with --seeds {args.seeds} --resume", file=sys.stderr
         )

@@ -142,18 +142,32 @@ def test_route_start_episodes_are_logged_but_not_rated_by_the_curriculum(
     assert list(window) == nominal[-config.curriculum_window :]
 
 
-def _interrupt_at(monkeypatch: pytest.MonkeyPatch, step: int) -> None:
-    """Send SIGINT to ourselves from inside the step-th env.step of the next run."""
+def _interrupt_at(monkeypatch: pytest.MonkeyPatch, step: int, sig: int = signal.SIGINT) -> None:
+    """Send sig (SIGINT by default) to ourselves from inside the step-th env.step of the next run."""
     original = D3DWAEnv.step
     calls = {"n": 0}
 
     def step_then_interrupt(self, action):
         calls["n"] += 1
         if calls["n"] == step:
-            os.kill(os.getpid(), signal.SIGINT)
+            os.kill(os.getpid(), sig)
         return original(self, action)
 
     monkeypatch.setattr(D3DWAEnv, "step", step_then_interrupt)
+
+
+def test_sigterm_stops_at_the_step_boundary_and_saves_latest_as_ctrl_c_does(
+    tiny: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`kill PID` (or a cluster ending the job) is a request to stop, not an abort."""
+    before = signal.getsignal(signal.SIGTERM)
+    with monkeypatch.context() as m:
+        _interrupt_at(m, 23, signal.SIGTERM)
+        stopped = train(replace(_config(tiny), total_steps=90), tmp_path / "t", progress=False)
+    assert stopped["status"] == "interrupted" and stopped["env_steps"] == 23
+    latest = json.loads((tmp_path / "t/checkpoints/latest/meta.json").read_text())
+    assert latest["env_steps"] == 23
+    assert signal.getsignal(signal.SIGTERM) is before  # the caller's handler is back
 
 
 def test_interrupt_and_resume_continue_exactly(

@@ -1,5 +1,6 @@
-"""Ctrl-C during training: the first SIGINT asks the loop to stop at the next step boundary
-(it then saves ``latest`` and returns "interrupted"); a second one aborts at once.
+"""Ctrl-C or SIGTERM (``kill PID``, a cluster's job end) during training: the first asks the
+loop to stop at the next step boundary (it then saves ``latest`` and returns "interrupted");
+a second one, of either kind, aborts at once.
 
 Handlers nest: ``train --seeds`` holds one around its loop over seeds and each seed's
 training holds its own. A Ctrl-C caught by the inner one is also a request to the outer
@@ -15,17 +16,19 @@ from typing import Any
 
 
 class StopOnInterrupt:
-    """SIGINT -> a flag checked at step boundaries; a second SIGINT raises at once."""
+    """SIGINT or SIGTERM -> a flag checked at step boundaries; a second one raises at once."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self) -> None:
         self.requested = False
-        self._previous: Any = None
+        self._previous: dict[int, Any] = {}
 
     def __enter__(self) -> StopOnInterrupt:
         try:
-            self._previous = signal.signal(signal.SIGINT, self._handle)
+            self._previous = {sig: signal.signal(sig, self._handle) for sig in self.SIGNALS}
         except ValueError:  # not the main thread: no handler, Ctrl-C behaves as usual
-            self._previous = None
+            self._previous = {}
         outer = self._outer()
         if outer is not None and outer.requested:
             self.requested = True
@@ -33,7 +36,7 @@ class StopOnInterrupt:
 
     def _outer(self) -> StopOnInterrupt | None:
         """The StopOnInterrupt whose handler this one replaced, if any."""
-        outer = getattr(self._previous, "__self__", None)
+        outer = getattr(self._previous.get(signal.SIGINT), "__self__", None)
         return outer if isinstance(outer, StopOnInterrupt) else None
 
     def _handle(self, signum: int, frame: Any) -> None:
@@ -45,5 +48,6 @@ class StopOnInterrupt:
             outer.requested = True
 
     def __exit__(self, *exc: object) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
+        for sig, previous in self._previous.items():
+            if previous is not None:
+                signal.signal(sig, previous)
