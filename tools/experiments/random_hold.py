@@ -2,12 +2,15 @@
 
     python -m tools.experiments.random_hold --hold 10 --seeds 0,1,2
     python -m tools.experiments.random_hold --hold 10 --seeds 0,1,2 --recovery nav2
+    python -m tools.experiments.random_hold --hold 10 --reference random-weights --noise real
 
-A uniform chooser over the 100 (weights, tau) actions (the `random` method's controller, its
-own stream of the episode seed) that keeps each draw for ``--hold`` control steps, run once
-per episode seed on R1-R3 and the sweep's 30 unseen generated layouts (generator seeds
-2^31 .. 2^31 + 9 per style, as ``d3dwa sweep --layouts 10``), no noise. Prints the goals per
-episode seed (``--json``: one object). A policy trained with ``decision_steps: k`` is to be
+A uniform chooser over a reference method's actions (``--reference``: `random`, the 100
+(weights, tau) actions, by default; `random-weights`, the 25 weight actions), its own stream
+of the episode seed, that keeps each draw for ``--hold`` control steps, run once per episode
+seed on R1-R3 and the sweep's 30 unseen generated layouts (generator seeds 2^31 .. 2^31 + 9
+per style, as ``d3dwa sweep --layouts 10``), under a named noise profile (``--noise``, none by
+default; each episode's noise drawn from its seed, as ``d3dwa sweep`` does). Prints the goals
+per episode seed (``--json``: one object). A policy trained with ``decision_steps: k`` is to be
 read against ``--hold k``: holding any action for 1 s is worth something by itself.
 """
 
@@ -20,7 +23,8 @@ from dataclasses import replace
 
 from d3dwa_bullet.episode import run_episode
 from d3dwa_bullet.episode_config import EpisodeConfig
-from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.errors import ConfigError, D3DWAError
+from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.methods import REFERENCE, Controller
 from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
@@ -44,6 +48,8 @@ def main(argv: list[str] | None = None) -> int:
         default="none",
         help="none (the paper's stack) or nav2 (docs/design.md#recovery)",
     )
+    ap.add_argument("--reference", default="random", help=f"one of {', '.join(REFERENCE)}")
+    ap.add_argument("--noise", default="none", help="a named noise profile: none, paper, real, harsh")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     try:
@@ -59,19 +65,36 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as err:
         print(f"random_hold: error: --recovery: {err}", file=sys.stderr)
         return 2
+    if args.reference not in REFERENCE:
+        print(
+            f"random_hold: error: --reference {args.reference!r}: choose one of "
+            f"{', '.join(REFERENCE)}",
+            file=sys.stderr,
+        )
+        return 2
+    try:
+        make_noise(args.noise, 0)
+    except D3DWAError as err:
+        print(f"random_hold: error: --noise {args.noise!r}: {err}", file=sys.stderr)
+        return 2
     worlds = layouts()
     goals = {}
     for seed in seeds:
         n = 0
         for world in worlds:
             controller = Controller(
-                "random", actions=REFERENCE["random"], uniform=True, hold=args.hold
+                args.reference, actions=REFERENCE[args.reference], uniform=True, hold=args.hold
             )
-            n += run_episode(world, controller, seed, config=config).outcome == "goal"
+            noise = make_noise(args.noise, seed)
+            episode = run_episode(
+                world, controller, seed, noise=noise, noise_name=args.noise, config=config
+            )
+            n += episode.outcome == "goal"
         goals[seed] = n
         if not args.json:
             print(
-                f"hold {args.hold}, recovery {args.recovery}, episode seed {seed}: "
+                f"{args.reference}, hold {args.hold}, noise {args.noise}, recovery "
+                f"{args.recovery}, episode seed {seed}: "
                 f"{n}/{len(worlds)} goals",
                 flush=True,
             )
@@ -81,7 +104,9 @@ def main(argv: list[str] | None = None) -> int:
         print(
             json.dumps(
                 {
+                    "reference": args.reference,
                     "hold": args.hold,
+                    "noise": args.noise,
                     "recovery": args.recovery,
                     "layouts": len(worlds),
                     "goals": goals,
