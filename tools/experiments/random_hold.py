@@ -49,7 +49,9 @@ def main(argv: list[str] | None = None) -> int:
         help="none (the paper's stack) or nav2 (docs/design.md#recovery)",
     )
     ap.add_argument("--reference", default="random", help=f"one of {', '.join(REFERENCE)}")
-    ap.add_argument("--noise", default="none", help="a named noise profile: none, paper, real, harsh")
+    ap.add_argument(
+        "--noise", default="none", help="a named noise profile: none, paper, real, harsh"
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     try:
