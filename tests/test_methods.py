@@ -195,4 +195,4 @@ def test_each_reference_method_plots_in_its_own_grey_and_the_others_keep_their_c
     greys = [colours["random"], colours["random-weights"]]
     assert all(c[0] == c[1] == c[2] for c in greys) and greys[0] != greys[1]
     assert colours["d3dwa"] == method_colours(["d3dwa"])["d3dwa"]
-    assert colours["dwa1"][:3] != colours["dwa1"][0:1] * 3
+    assert len(set(colours["dwa1"][:3])) > 1  # a contender is not grey
