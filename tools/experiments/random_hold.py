@@ -25,7 +25,7 @@ from d3dwa_bullet.episode import run_episode
 from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, D3DWAError
 from d3dwa_bullet.evaluation.jobs import make_noise
-from d3dwa_bullet.methods import REFERENCE, Controller
+from d3dwa_bullet.methods import REFERENCE, make_controller
 from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
 from d3dwa_bullet.world.registry import load_world
@@ -84,9 +84,7 @@ def main(argv: list[str] | None = None) -> int:
     for seed in seeds:
         n = 0
         for world in worlds:
-            controller = Controller(
-                args.reference, actions=REFERENCE[args.reference], uniform=True, hold=args.hold
-            )
+            controller = replace(make_controller(args.reference), hold=args.hold)
             noise = make_noise(args.noise, seed)
             episode = run_episode(
                 world, controller, seed, noise=noise, noise_name=args.noise, config=config
