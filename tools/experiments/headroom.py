@@ -1,0 +1,123 @@
+"""The headroom a randomised policy should approach: a switch that knows the noise profile.
+
+A diagnostic, not a method (SPEC 7): under each profile it plays the method it is told to
+(by default the noise-free policy ``d3dwa`` under ``none``, ``paper`` and ``real``, and the
+fixed planner DWA III under ``harsh``). Episodes are deterministic given the layout, the
+episode seed and the method, so the switch's episode under a profile *is* that method's
+episode in the sweep: the switch is read from a sweep directory, not run again. Beside it, per
+profile: every method of the sweep and the best fixed tuple in hindsight (the fixed method with
+the most goals under that profile, chosen after looking, which only a bound may do). Success
+is the mean over layouts of each training seed's success, with the 95 % stratified bootstrap
+interval over training seeds (``d3dwa eval``'s statistic).
+
+    d3dwa sweep --axes '' --recovery nav2 --profiles none,paper,real,harsh --out runs/profiles
+    python -m tools.experiments.headroom runs/profiles
+    python -m tools.experiments.headroom runs/profiles --switch none=d3dwa,real=d3dwa,harsh=dwa3
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections import defaultdict
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from d3dwa_bullet.errors import D3DWAError, ResultsError
+from d3dwa_bullet.evaluation.results import job_rows
+from d3dwa_bullet.evaluation.seed_stats import mean_interval
+from d3dwa_bullet.evaluation.seed_tables import success_scores
+from d3dwa_bullet.evaluation.sweep import profile_of
+from d3dwa_bullet.methods import FIXED
+
+DEFAULT_SWITCH = {"none": "d3dwa", "paper": "d3dwa", "real": "d3dwa", "harsh": "dwa3"}
+SWITCH = "headroom"
+
+
+def parse_switch(text: str) -> dict[str, str]:
+    """``profile=method,...`` as a mapping; ResultsError naming a malformed item."""
+    out: dict[str, str] = {}
+    for item in filter(None, (s.strip() for s in text.split(","))):
+        profile, sep, method = item.partition("=")
+        if not sep or not profile or not method:
+            raise ResultsError(f"--switch: {item!r} is not PROFILE=METHOD")
+        out[profile] = method
+    if not out:
+        raise ResultsError("--switch: empty")
+    return out
+
+
+def success(rows: Sequence[Mapping[str, Any]]) -> dict[str, float]:
+    """Mean success over layouts of each training seed's per-layout success, with interval."""
+    layouts: dict[str, list[Mapping[str, Any]]] = defaultdict(list)
+    for r in rows:
+        layouts[r["world"]].append(r)
+    i = mean_interval([success_scores(rs) for rs in layouts.values()])
+    return {"success": i.value, "low": i.low, "high": i.high, "layouts": len(layouts)}
+
+
+def headroom(sweep: Path, switch: Mapping[str, str]) -> list[dict[str, Any]]:
+    """One record per profile of the switch: the switch's success, every method's, and the
+    best fixed tuple's in hindsight."""
+    if not (sweep / "results.csv").is_file():
+        raise ResultsError(f"{sweep}: no results.csv")
+    cells: dict[tuple[str, str], list[Mapping[str, Any]]] = defaultdict(list)
+    for r in job_rows(sweep):
+        profile = profile_of(r)
+        if profile is not None:
+            cells[(profile, r["method"])].append(r)
+    methods = list(dict.fromkeys(m for _, m in cells))
+    records = []
+    for profile, chosen in switch.items():
+        if (profile, chosen) not in cells:
+            raise ResultsError(f"{sweep}: no rows of {chosen!r} under profile {profile!r}")
+        per = {m: success(cells[(profile, m)]) for m in methods if (profile, m) in cells}
+        fixed = [m for m in per if m in FIXED]
+        best = max(fixed, key=lambda m: per[m]["success"]) if fixed else None
+        records.append({"profile": profile, "switch": chosen, SWITCH: per[chosen],
+                        "best_fixed": best, "methods": per})  # fmt: skip
+    return records
+
+
+def _cell(s: Mapping[str, float]) -> str:
+    if s["low"] == s["high"]:
+        return f"{100 * s['success']:.0f}"
+    return f"{100 * s['success']:.0f} [{100 * s['low']:.0f}, {100 * s['high']:.0f}]"
+
+
+def markdown(records: Sequence[Mapping[str, Any]]) -> str:
+    methods = list(dict.fromkeys(m for r in records for m in r["methods"]))
+    head = ["profile", "headroom (plays)", "best fixed in hindsight", *methods]
+    lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    for r in records:
+        best = r["best_fixed"]
+        best_cell = f"{best} {_cell(r['methods'][best])}" if best else ""
+        cells = [r["profile"], f"{_cell(r[SWITCH])} ({r['switch']})", best_cell]
+        cells += [_cell(r["methods"][m]) if m in r["methods"] else "" for m in methods]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="headroom", description=__doc__.split("\n")[0])
+    parser.add_argument("sweep", type=Path, help="a `d3dwa sweep` directory with named profiles")
+    parser.add_argument("--switch", default=",".join(f"{p}={m}" for p, m in DEFAULT_SWITCH.items()),
+                        help="PROFILE=METHOD,... (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--json", action="store_true")
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    try:
+        records = headroom(args.sweep, parse_switch(args.switch))
+    except D3DWAError as exc:
+        print(f"headroom: {exc}", file=sys.stderr)
+        return 2
+    print(json.dumps(records, indent=1) if args.json else markdown(records), end="")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
