@@ -23,6 +23,7 @@ from d3dwa_bullet.planning.observation import build_observation, goal_in_body
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult, plan
 from d3dwa_bullet.planning.progress import NoProgressClock, make_observer, observation_layout
 from d3dwa_bullet.planning.recovery import Recovery, RecoveryCommand
+from d3dwa_bullet.planning.scan_filter import ScanFilter
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.scan import LaserScan, scan_points_body
 from d3dwa_bullet.sim.simulator import Simulator
@@ -174,6 +175,8 @@ class Episode:
         the last observe(): what the stall penalty of the reward reads."""
         self.last_plan = None
         self.recovery = make_recovery(config)
+        self.scan_filter = ScanFilter(config.scan_filter)
+        """The scan filter chain (per episode: its state starts empty)."""
         """The recovery layer around the controller (None on the paper's stack)."""
         self.last_recovery: RecoveryCommand | None = None
         """What the recovery layer drove at the last act() (None: the planner drove)."""
@@ -188,6 +191,7 @@ class Episode:
         t = sim.clock.charge("physics", t)
         scan, true_ranges = sim.sense()
         t = perf()
+        scan = self.scan_filter(scan)
         valid = true_ranges[np.isfinite(true_ranges) & (true_ranges >= cfg.lidar.range_min)]
         self.goal_distance = math.hypot(self.world.goal[0] - pose[0], self.world.goal[1] - pose[1])
         self.obstacle_distance = float(valid.min()) if valid.size else math.inf

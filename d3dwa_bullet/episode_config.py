@@ -13,6 +13,7 @@ from d3dwa_bullet.params import (
     SimParams,
     TerminationParams,
 )
+from d3dwa_bullet.planning.scan_filter import check_scan_filter
 from d3dwa_bullet.sim.lidar_params import LidarParams
 
 
@@ -27,6 +28,12 @@ class EpisodeConfig:
     lidar: LidarParams = field(default_factory=LidarParams)
     recovery: RecoveryParams | None = None
     """The recovery layer around the controller (beyond the paper; None = the paper's stack)."""
+    scan_filter: str = "none"
+    """The scan filter chain between the lidar and everything that reads it (beyond the paper,
+    :data:`~d3dwa_bullet.planning.scan_filter.SCAN_FILTERS`; "none" = the paper's stack)."""
+
+    def __post_init__(self) -> None:
+        check_scan_filter(self.scan_filter)
 
     @property
     def recovery_name(self) -> str:

@@ -39,6 +39,7 @@ from d3dwa_bullet.methods import (
     refuse_policy,
 )
 from d3dwa_bullet.params import RECOVERY_KINDS, PlannerParams, SimParams, recovery_params
+from d3dwa_bullet.planning.scan_filter import SCAN_FILTERS
 from d3dwa_bullet.world.model import World, goal_in_obstacle, start_in_collision
 from d3dwa_bullet.world.registry import load_world, world_file_kind
 from randomization.profiles import load_profile
@@ -231,6 +232,12 @@ def add_recovery_options(p: argparse.ArgumentParser) -> None:
         "nav2 (progress checker + spin / back-up, beyond the paper; docs/design.md#recovery)",
     )
     p.add_argument(
+        "--scan-filter",
+        default="none",
+        help=f"scan filter before the observation and the planner: {', '.join(SCAN_FILTERS)} "
+        "(none: the paper's stack, default; beyond the paper: docs/design.md#scan-filter)",
+    )
+    p.add_argument(
         "--progress-radius", type=float, help="with --recovery: movement radius, m (default 0.5)"
     )
     p.add_argument(
@@ -270,7 +277,16 @@ def episode_config(args: argparse.Namespace) -> EpisodeConfig:
         sim=sim,
         planner=PlannerParams(control_period=sim.control_period),
         recovery=recovery_arg(args, sim.control_period),
+        scan_filter=scan_filter_arg(args),
     )
+
+
+def scan_filter_arg(args: argparse.Namespace) -> str:
+    """--scan-filter, checked (ConfigError naming the option and the known names)."""
+    name = getattr(args, "scan_filter", "none")
+    if name not in SCAN_FILTERS:
+        raise ConfigError(f"--scan-filter {name!r}: choose one of {', '.join(SCAN_FILTERS)}")
+    return name
 
 
 def add_backend_options(p: argparse.ArgumentParser) -> None:
