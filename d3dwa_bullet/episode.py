@@ -191,7 +191,6 @@ class Episode:
         t = sim.clock.charge("physics", t)
         scan, true_ranges = sim.sense()
         t = perf()
-        scan = self.scan_filter(scan)
         valid = true_ranges[np.isfinite(true_ranges) & (true_ranges >= cfg.lidar.range_min)]
         self.goal_distance = math.hypot(self.world.goal[0] - pose[0], self.world.goal[1] - pose[1])
         self.obstacle_distance = float(valid.min()) if valid.size else math.inf
@@ -205,8 +204,8 @@ class Episode:
             self.outcome = "goal"
         elif sim.step_count >= self.max_steps:
             self.outcome = "timeout"
-        self.scan = scan
-        self.points = scan_points_body(scan, cfg.lidar.mount)
+        self.scan = scan  # as the lidar gave it (what a recorded bag holds)
+        self.points = scan_points_body(self.scan_filter(scan), cfg.lidar.mount)
         t = sim.clock.charge("observation", t)
         self.estimate = sim.estimate()
         est_pose, est_vel = self.estimate

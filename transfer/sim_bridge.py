@@ -58,8 +58,10 @@ from d3dwa_bullet.planning.observation import goal_in_body
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult
 from d3dwa_bullet.planning.progress import ProgressObserver, make_observer, observation_layout
 from d3dwa_bullet.planning.recovery import RecoveryCommand
+from d3dwa_bullet.planning.scan_filter import ScanFilter
 from d3dwa_bullet.sim.estimator import EstimatorConfig, PoseEstimator
 from d3dwa_bullet.sim.noise import NoiseModel
+from d3dwa_bullet.sim.scan import scan_points_body
 from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.registry import load_world
 from transfer.replay_step import ESTIMATORS, Estimator, ScanStep, SkipScan, StepOutput
@@ -161,6 +163,8 @@ class ReplayPipeline:
         stack), on :meth:`recovery_clock`."""
         self.last_recovery: RecoveryCommand | None = None
         """What the recovery layer drove at the last step (None: the planner drove)."""
+        self.scan_filter = ScanFilter(config.scan_filter)
+        """The scan filter chain, as ``Episode`` runs it (its state lives for one replay)."""
         self._t0_ns: int | None = None
 
     def recovery_clock(self, t_ns: int) -> float:
@@ -185,7 +189,7 @@ class ReplayPipeline:
             pose, velocity = step.odom_pose, step.odom_twist
         if not (np.isfinite(pose).all() and np.isfinite(velocity).all()):
             raise SkipScan(SKIP_NON_FINITE_ESTIMATE)
-        points = step.points()
+        points = scan_points_body(self.scan_filter(step.scan), step.mount)
         obs, index, action, result = decide(
             pose, velocity, step.goal, points, self.controller, self.config,
             self.progress, step.t_ns,

@@ -23,6 +23,7 @@ from d3dwa_bullet.cli.options import (
     add_recovery_options,
     parse_floats,
     recovery_arg,
+    scan_filter_arg,
     time_limit_arg,
 )
 from d3dwa_bullet.cli.output import json_text
@@ -108,7 +109,9 @@ def cmd_drive(args: argparse.Namespace) -> int:
         if value is not None:
             _seconds(value, option)
     time_limit = time_limit_arg(args.time_limit) or TerminationParams().time_limit
-    config = EpisodeConfig(recovery=recovery_arg(args, SimParams().control_period))
+    config = EpisodeConfig(
+        recovery=recovery_arg(args, SimParams().control_period), scan_filter=scan_filter_arg(args)
+    )
     check_method(args.method)
     if args.onnx is not None and args.policy is not None:
         raise ConfigError(

@@ -24,6 +24,7 @@ from d3dwa_bullet.cli.options import (
     load_cli_world,
     parse_floats,
     recovery_arg,
+    scan_filter_arg,
     seed_arg,
     time_limit_arg,
 )
@@ -233,11 +234,12 @@ def run_record(
         extra["time_limit"] = args.time_limit
     seed_arg(args.seed)
     recovery = recovery_arg(args, SimParams().control_period)
-    if recovery is not None:
+    scan_filter = scan_filter_arg(args)
+    if recovery is not None or scan_filter != "none":
         # start-up cost: d3dwa_bullet.episode imports pybullet, needed only to record
         from d3dwa_bullet.episode import EpisodeConfig
 
-        extra["config"] = EpisodeConfig(recovery=recovery)
+        extra["config"] = EpisodeConfig(recovery=recovery, scan_filter=scan_filter)
     load_cli_world(args.world, getattr(args, "allow_empty", False), warn=False)
     target = Path(args.out)
     if target.exists() and not args.overwrite:

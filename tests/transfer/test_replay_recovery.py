@@ -37,3 +37,19 @@ def test_a_recovering_episode_replays_to_its_commands(tmp_path):
     spins = (recorded[:, 0] == 0.0) & (recorded[:, 1] != 0.0)
     assert spins.sum() > 5  # the recovery layer drove some steps
     np.testing.assert_array_equal(cmd, recorded)
+
+
+def test_a_filtered_episode_replays_to_its_commands_only_with_its_filter(tmp_path):
+    # The bag holds the scans as the lidar gave them; replay filters them as Episode did.
+    median = EpisodeConfig(scan_filter="median")
+    bag = tmp_path / "r1"
+    with BagRecorder(bag) as recorder:
+        summary = record_episode("R1", "dwa3", None, "harsh", 0, recorder, config=median,
+                                 time_limit=6.0)  # fmt: skip
+    replay = replay_bag(bag, step_fn=make_step_fn("dwa3", config=median), plots=False)
+    cmd = np.array([row.cmd for row in replay.rows])
+    recorded = np.array([row.recorded_cmd for row in replay.rows])
+    assert len(cmd) == summary["steps"]
+    np.testing.assert_array_equal(cmd, recorded)
+    raw = replay_bag(bag, step_fn=make_step_fn("dwa3"), plots=False)
+    assert not np.array_equal(np.array([row.cmd for row in raw.rows]), recorded)
