@@ -17,8 +17,8 @@ import numpy as np
 
 from d3dwa_bullet.episode_config import EpisodeConfig  # re-exported: its old home
 from d3dwa_bullet.episode_metrics import body_clearance, posture_displacement, trajectory_length
-from d3dwa_bullet.methods import Controller
 from d3dwa_bullet.params import PROGRESS_RADIUS
+from d3dwa_bullet.planning.controller import Controller
 from d3dwa_bullet.planning.observation import build_observation, goal_in_body
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult, plan
 from d3dwa_bullet.planning.progress import NoProgressClock, make_observer, observation_layout

@@ -103,6 +103,10 @@ MAX_STEM_BYTES = Limit(
 cut and ends in a hash of the whole (:func:`d3dwa_bullet.io.file_stem`), so it stays unique;
 the atomic writer's temporary name adds 14 bytes to the final one."""
 
+MAX_DECISION_STEPS = Limit(100, "a decision period of 10 s at 10 Hz is a sixth of an episode")
+"""Decision period, control steps: a training config's ``decision_steps``, a policy's recorded
+period, and a reference method's hold (``random@10``); the shipped policies decide every 10."""
+
 MAX_PHYSICS_HZ = Limit(10_000, "each control step runs physics_hz / control_hz PyBullet steps")
 """``--physics-hz`` of run, eval and sweep: the protocol simulates at 240 Hz; 10 kHz makes
 every simulated second 10,000 PyBullet steps."""

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import Episode, run_episode
-from d3dwa_bullet.methods import FIXED, make_controller
+from d3dwa_bullet.method_specs import FIXED
 from d3dwa_bullet.world.model import Cylinder, World
 from d3dwa_bullet.world.registry import load_world, world_paths
 

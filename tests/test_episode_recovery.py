@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import Episode, EpisodeConfig, run_episode
 from d3dwa_bullet.evaluation.failures import recoveries
-from d3dwa_bullet.methods import make_controller
 from d3dwa_bullet.params import RecoveryParams
 from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.registry import load_world

@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import (
     Episode,
     EpisodeConfig,
@@ -53,7 +54,7 @@ from d3dwa_bullet.episode import (
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.geometry import wrap_angle_modular
-from d3dwa_bullet.methods import Controller, make_controller
+from d3dwa_bullet.planning.controller import Controller
 from d3dwa_bullet.planning.observation import goal_in_body
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult
 from d3dwa_bullet.planning.progress import ProgressObserver, make_observer, observation_layout

@@ -81,7 +81,7 @@ def _side(out: Path, method: str, warn: bool = True) -> tuple[list[dict[str, Any
 
 def cmd_compare(args: argparse.Namespace) -> int:
     from d3dwa_bullet.evaluation.seed_tables import improvement, improvement_table
-    from d3dwa_bullet.methods import LABELS, check_method
+    from d3dwa_bullet.method_specs import LABELS, check_method
     from d3dwa_bullet.world.registry import world_groups
 
     names = [m.strip() for m in args.methods.split(",") if m.strip()]

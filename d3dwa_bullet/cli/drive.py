@@ -29,7 +29,7 @@ from d3dwa_bullet.cli.options import (
 from d3dwa_bullet.cli.output import json_text
 from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, D3DWAError
-from d3dwa_bullet.methods import METHODS, check_method
+from d3dwa_bullet.method_specs import METHODS, check_method
 from d3dwa_bullet.params import SimParams, TerminationParams
 
 ROBOT_EXTRA = 'pip install "d3dwa-bullet[robot]"'
@@ -121,7 +121,7 @@ def cmd_drive(args: argparse.Namespace) -> int:
         raise ConfigError(f"--record {args.record}: exists; pass --overwrite to replace it")
     live = robot_extra("drive")
     # start-up cost: the policy (torch, or onnxruntime) and transfer's replay step (pybullet)
-    from d3dwa_bullet.methods import make_controller
+    from d3dwa_bullet.controllers import make_controller
     from transfer.bag_writer import BagRecorder
     from transfer.sim_bridge import ReplayPipeline
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from d3dwa_bullet.backends import check_address
 from d3dwa_bullet.cli.options import (
     ALLOW_EMPTY_HELP,
     add_backend_options,
@@ -30,13 +31,13 @@ from d3dwa_bullet.cli.options import (
     workers_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.evaluation.backends import check_address
 from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.limits import MAX_EPISODES, MAX_SEED_VALUE, MAX_SEEDS
-from d3dwa_bullet.methods import check_method, make_controller
+from d3dwa_bullet.method_specs import check_method
 from d3dwa_bullet.world.registry import world_names
 
 TABLE1_GROUPS = ("train", "unseen")

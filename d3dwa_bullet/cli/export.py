@@ -64,7 +64,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     # start-up cost: the exporter imports torch and onnx, the method registry the planner
     # (numba), none of which `d3dwa --help` needs
     from d3dwa_bullet.learning.agents.onnx_export import check_exportable, export_onnx
-    from d3dwa_bullet.methods import LEARNED, method_observation
+    from d3dwa_bullet.method_specs import LEARNED, method_observation
 
     methods = _methods(args.method, args.policy)
     out = Path(args.onnx)
@@ -137,12 +137,12 @@ def _check_replaceable(dest: Path, force: bool) -> None:
 
 def _methods(method: str | None, policy: str | None) -> list[str]:
     """The methods to export: --method checked, or every network method."""
-    from d3dwa_bullet.methods import (  # start-up cost: numba
+    from d3dwa_bullet.method_specs import (  # start-up cost: numba
         FIXED,
-        NO_POLICY,
         ONNX_METHODS,
         check_method,
         method_family,
+        needs_policy,
     )
 
     if method is None:
@@ -152,7 +152,7 @@ def _methods(method: str | None, policy: str | None) -> list[str]:
     check_method(method)
     if method in FIXED:
         raise ConfigError(f"--method {method} is a fixed DWA: it has no policy to export")
-    if method in NO_POLICY:
+    if not needs_policy(method):
         raise ConfigError(
             f"--method {method} is a {method_family(method)} method: it has no policy to export"
         )
@@ -169,7 +169,7 @@ def _sources(method: str, policy: str | None, seeds: str | None, *, explicit: bo
 
     explicit: the user named the method, so a method without policies is an error rather
     than nothing to do."""
-    from d3dwa_bullet.methods import default_policy_path  # start-up cost: numba
+    from d3dwa_bullet.controllers import default_policy_path  # start-up cost: numba
 
     folder = Path(policy) if policy is not None else default_policy_path(method)
     if (folder / "meta.json").exists():

@@ -21,6 +21,7 @@ import re
 import warnings
 from collections.abc import Callable, Sequence
 
+from d3dwa_bullet.controllers import default_policy_path, refuse_policy
 from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, WorldFormatError
 from d3dwa_bullet.limits import (
@@ -30,14 +31,7 @@ from d3dwa_bullet.limits import (
     MAX_TIME_LIMIT_S,
     check_processes,
 )
-from d3dwa_bullet.methods import (
-    BEYOND_PAPER,
-    FIXED,
-    LEARNED,
-    REFERENCE,
-    default_policy_path,
-    refuse_policy,
-)
+from d3dwa_bullet.method_specs import BEYOND_PAPER, FIXED, LEARNED, REFERENCE
 from d3dwa_bullet.params import RECOVERY_KINDS, PlannerParams, SimParams, recovery_params
 from d3dwa_bullet.planning.scan_filter import SCAN_FILTERS
 from d3dwa_bullet.world.model import World, goal_in_obstacle, start_in_collision

@@ -21,7 +21,7 @@ from d3dwa_bullet.cli.options import (
 )
 from d3dwa_bullet.cli.output import check_out_file, json_text
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.methods import METHODS
+from d3dwa_bullet.method_specs import METHODS
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -58,9 +58,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.plot:
         check_out_file(args.plot, "--plot", figure_suffixes())
     # start-up cost: the simulator (pybullet) is imported only when an episode runs
+    from d3dwa_bullet.controllers import make_controller
     from d3dwa_bullet.episode import run_episode
     from d3dwa_bullet.evaluation.jobs import make_noise
-    from d3dwa_bullet.methods import LABELS, make_controller
+    from d3dwa_bullet.method_specs import LABELS
 
     controller = make_controller(args.method, args.policy, onnx=args.onnx)
     result = run_episode(
@@ -77,7 +78,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             f"min clearance {summary['min_clearance_m']:.3f} m ({summary['steps']} steps)",
             flush=True,
         )
-        if controller.source not in ("fixed", "reference"):
+        if controller.policy is not None or controller.hold > 1:
             print(f"policy: {controller.source}", flush=True)
     if args.plot:
         # start-up cost: matplotlib (~0.3 s) only with --plot

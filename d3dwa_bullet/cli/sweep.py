@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 
+from d3dwa_bullet.backends import check_address
 from d3dwa_bullet.cli.options import (
     ALLOW_EMPTY_HELP,
     add_backend_options,
@@ -24,7 +25,6 @@ from d3dwa_bullet.cli.options import (
     workers_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
-from d3dwa_bullet.evaluation.backends import check_address
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.sweep_settings import (
     PROFILES,

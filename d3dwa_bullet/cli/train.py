@@ -11,7 +11,7 @@ from pathlib import Path
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.limits import MAX_TOTAL_STEPS, check_processes
 from d3dwa_bullet.loading import load_yaml
-from d3dwa_bullet.methods import LEARNED
+from d3dwa_bullet.method_specs import LEARNED
 from d3dwa_bullet.resources import configs_dir
 from d3dwa_bullet.seed_dirs import parse_seeds
 

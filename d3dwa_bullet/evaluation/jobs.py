@@ -5,7 +5,7 @@ of a list not yet in a results directory (see :mod:`d3dwa_bullet.evaluation.resu
 what the directory holds and how a run resumes) and returns the rows of the whole list.
 
 Episodes run in this process, in a pool of spawned processes (``workers``) or on a Ray
-cluster (``ray_address``, see :mod:`d3dwa_bullet.evaluation.backends`), with identical rows;
+cluster (``ray_address``, see :mod:`d3dwa_bullet.backends`), with identical rows;
 results.csv ends up in job order either way.
 """
 
@@ -23,10 +23,11 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
+from d3dwa_bullet.backends import open_backend
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig, EpisodeResult, run_episode
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.evaluation.backends import open_backend
 from d3dwa_bullet.evaluation.results import (
     CSV_FIELDS,
     DERIVED_PAGES,
@@ -46,7 +47,7 @@ from d3dwa_bullet.evaluation.results import (
 )
 from d3dwa_bullet.io import file_stem
 from d3dwa_bullet.loading import parse_json
-from d3dwa_bullet.methods import LABELS, make_controller
+from d3dwa_bullet.method_specs import LABELS
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.noise_config import NoiseConfig
 from d3dwa_bullet.world.model import World
@@ -151,7 +152,7 @@ def evaluate(
     """Run every job not already in out/results.csv; returns all rows for these jobs.
 
     workers: local processes (1 = this process). ray_address: run on Ray instead (see
-    :mod:`d3dwa_bullet.evaluation.backends`). fields: the CSV columns (CSV_FIELDS plus the
+    :mod:`d3dwa_bullet.backends`). fields: the CSV columns (CSV_FIELDS plus the
     jobs' extra columns). settings: what the command was (kind, methods, worlds, ...), kept
     in meta.json for ``d3dwa report``. Rows are appended as episodes finish; once every job
     is in, results.csv is rewritten in the order of jobs, whatever the backend. A directory

@@ -17,7 +17,7 @@ from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Circle, Patch, Polygon  # noqa: E402
 
 from d3dwa_bullet.io import atomic_savefig  # noqa: E402
-from d3dwa_bullet.methods import LABELS, METHODS, REFERENCE  # noqa: E402
+from d3dwa_bullet.method_specs import LABELS, METHODS, REFERENCE  # noqa: E402
 from d3dwa_bullet.params import RECOVERY_BEHAVIOURS  # noqa: E402
 from d3dwa_bullet.world.model import Cylinder, World, obstacle_outline  # noqa: E402
 
@@ -164,7 +164,7 @@ _COLOURED = tuple(m for m in METHODS if m not in REFERENCE)
 
 def method_colours(methods: Sequence[str]) -> dict[str, tuple]:
     """A stable colour per method name: a reference method grey, every other one its slot
-    in the order of d3dwa_bullet.methods.METHODS (reference methods left out, so adding one
+    in the order of d3dwa_bullet.method_specs.METHODS (reference methods left out, so adding one
     changes no other method's colour)."""
     cmap = plt.get_cmap("tab10")
     return {

@@ -21,10 +21,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from d3dwa_bullet.controllers import default_policy_path
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.evaluation.results import differences
 from d3dwa_bullet.loading import load_json
-from d3dwa_bullet.methods import NO_POLICY, default_policy_path
+from d3dwa_bullet.method_specs import needs_policy
 from d3dwa_bullet.seed_dirs import parse_seeds, seed_dirs, seed_of
 
 ALL = "all"
@@ -107,7 +108,7 @@ def method_runs(
     runs: list[PolicyRun] = []
     chosen = False
     for method in methods:
-        if method in NO_POLICY:
+        if not needs_policy(method):
             runs.append(PolicyRun(method))
             continue
         folder = Path(policy) if policy is not None else default_policy_path(method)
@@ -132,7 +133,7 @@ def policy_digests(runs: Sequence[PolicyRun]) -> dict[str, str]:
     (or Q-table) as its meta.json records it ('' if the folder has none)."""
     digests = {}
     for run in runs:
-        if run.method in NO_POLICY:
+        if not needs_policy(run.method):
             continue
         folder = Path(run.policy) if run.policy is not None else default_policy_path(run.method)
         name = run.method if run.policy_seed is None else f"{run.method}/seed-{run.policy_seed}"

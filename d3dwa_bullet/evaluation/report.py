@@ -41,7 +41,7 @@ from d3dwa_bullet.evaluation.sweep import (
 )
 from d3dwa_bullet.evaluation.tables import paper_table, run_notes
 from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text
-from d3dwa_bullet.methods import LABELS
+from d3dwa_bullet.method_specs import LABELS
 from d3dwa_bullet.resources import policies_dir as shipped_policies_dir
 from d3dwa_bullet.world.registry import load_world
 

@@ -32,7 +32,7 @@ from d3dwa_bullet.evaluation.seed_stats import (
     mean_interval,
     probability_of_improvement,
 )
-from d3dwa_bullet.methods import LABELS, NO_POLICY, method_family
+from d3dwa_bullet.method_specs import LABELS, method_family, needs_policy
 
 Row = Mapping[str, Any]
 Run = tuple[str, int]
@@ -112,7 +112,7 @@ def _runs_label(method: str, rows: Sequence[Row]) -> str:
     episodes = f"{n} episode{'s' * (n != 1)}"
     if seeds:
         return f"{seeds} training seed{'s' * (seeds != 1)}, {episodes}"
-    kind = method_family(method) if method in NO_POLICY else "one policy, no training seeds"
+    kind = method_family(method) if not needs_policy(method) else "one policy, no training seeds"
     return f"{kind}, {episodes}"
 
 

@@ -41,6 +41,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.evaluation.jobs import Job, evaluate, noise_config_json
@@ -59,7 +60,6 @@ from d3dwa_bullet.evaluation.sweep_settings import (
 from d3dwa_bullet.evaluation.tables import run_notes, series_table
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.limits import MAX_EPISODES
-from d3dwa_bullet.methods import make_controller
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
 from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.registry import load_world

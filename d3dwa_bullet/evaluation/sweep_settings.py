@@ -11,7 +11,7 @@ from typing import Any
 from d3dwa_bullet.errors import ConfigError, UnknownNameError
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.limits import MAX_EPISODES, MAX_LAYOUTS, MAX_LEVELS, MAX_SEEDS
-from d3dwa_bullet.methods import check_method
+from d3dwa_bullet.method_specs import check_method
 from d3dwa_bullet.world.registry import world_names
 from randomization import load_profile
 
@@ -28,7 +28,7 @@ class SweepSettings:
     """What a sweep runs; saved in meta.json so a results directory documents itself."""
 
     methods: tuple[str, ...]
-    """Method names (see d3dwa_bullet.methods)."""
+    """Method names (see d3dwa_bullet.method_specs)."""
     worlds: tuple[str, ...] = SHIPPED_WORLDS
     """Shipped worlds (names or files)."""
     styles: tuple[str, ...] = STYLES

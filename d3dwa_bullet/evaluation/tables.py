@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from d3dwa_bullet.evaluation.stats import CellStats, Series
-from d3dwa_bullet.methods import LABELS
+from d3dwa_bullet.method_specs import LABELS
 
 METRICS = (("time_s", "Time"), ("tl_m", "TL"), ("pd_rad", "PD"))
 

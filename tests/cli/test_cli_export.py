@@ -10,10 +10,11 @@ from pathlib import Path
 
 import pytest
 
+from d3dwa_bullet.controllers import default_policy_path
 from d3dwa_bullet.learning.agents import D3QNAgent, D3QNConfig, save_checkpoint
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
 from d3dwa_bullet.learning.agents.onnx_export import Q_TOLERANCE
-from d3dwa_bullet.methods import ONNX_METHODS, UNSHIPPED, default_policy_path
+from d3dwa_bullet.method_specs import ONNX_METHODS, UNSHIPPED
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
 from d3dwa_bullet.planning.progress import observation_layout
 from d3dwa_bullet.seed_dirs import seed_dirs

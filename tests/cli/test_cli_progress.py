@@ -12,8 +12,8 @@ import pytest
 
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.cli.options import default_methods
+from d3dwa_bullet.controllers import default_policy_path
 from d3dwa_bullet.learning.agents import D3QNAgent, D3QNConfig, save_checkpoint
-from d3dwa_bullet.methods import default_policy_path
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
 from d3dwa_bullet.planning.progress import observation_layout
 from tests.support.bag_messages import scan_msg

@@ -19,10 +19,10 @@ from typing import Any
 
 import pytest
 
+from d3dwa_bullet.backends import probe_address, split_address
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.errors import BackendError
 from d3dwa_bullet.evaluation import jobs as jobs_module
-from d3dwa_bullet.evaluation.backends import probe_address, split_address
 from d3dwa_bullet.evaluation.jobs import Job, evaluate, noise_config_json
 from d3dwa_bullet.sim.noise_config import LidarNoiseConfig, NoiseConfig, SlipConfig
 from d3dwa_bullet.world.model import Cylinder, World

@@ -16,6 +16,7 @@ import onnx
 import pytest
 
 import d3dwa_bullet.learning.agents as agents
+from d3dwa_bullet.controllers import default_policy_path, make_controller
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.learning.agents import onnx_export, onnx_policy
 from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint, read_meta, save_checkpoint
@@ -25,14 +26,7 @@ from d3dwa_bullet.learning.agents.onnx_export import export_onnx, q_values, samp
 from d3dwa_bullet.learning.agents.onnx_policy import METADATA_KEYS, load_onnx_policy, onnx_metadata
 from d3dwa_bullet.learning.agents.policy import load_policy
 from d3dwa_bullet.limits import Limit
-from d3dwa_bullet.methods import (
-    LEARNED,
-    ONNX_METHODS,
-    UNSHIPPED,
-    default_policy_path,
-    make_controller,
-    method_observation,
-)
+from d3dwa_bullet.method_specs import LEARNED, ONNX_METHODS, UNSHIPPED, method_observation
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
 from d3dwa_bullet.planning.progress import observation_layout
 from d3dwa_bullet.seed_dirs import seed_dirs
@@ -356,7 +350,7 @@ def test_an_onnx_controller_drives_where_torch_cannot_be_imported(exported) -> N
         import sys
         sys.modules["torch"] = None  # as on a robot without torch: import torch fails
         import numpy as np
-        from d3dwa_bullet.methods import make_controller
+        from d3dwa_bullet.controllers import make_controller
         controller = make_controller("d3dwa", onnx={str(file)!r})
         for obs in {OBSERVATIONS.tolist()!r}:
             controller.reset(0)  # each observation a first step: no held decision

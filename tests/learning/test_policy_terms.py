@@ -11,6 +11,7 @@ from pathlib import Path
 import onnx
 import pytest
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.errors import CheckpointError
 from d3dwa_bullet.learning.agents.onnx_export import export_onnx
 from d3dwa_bullet.learning.agents.onnx_policy import (
@@ -21,7 +22,6 @@ from d3dwa_bullet.learning.agents.onnx_policy import (
     sample_observations,
 )
 from d3dwa_bullet.learning.agents.policy_terms import decision_period, trained_recovery
-from d3dwa_bullet.methods import make_controller
 from d3dwa_bullet.planning.progress import observation_layout
 from tests.support.held_policy import held_checkpoint
 

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 import yaml
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint
 from d3dwa_bullet.learning.training import TrainConfig, load_train_config, train
-from d3dwa_bullet.methods import make_controller
 from d3dwa_bullet.params import RewardParams
 from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
 from d3dwa_bullet.planning.progress import observation_layout

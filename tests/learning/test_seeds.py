@@ -134,7 +134,7 @@ def test_keep_best_refuses_worlds_a_table_reports(tiny: str, tmp_path: Path) -> 
 def test_one_episode_of_a_folder_of_seeds_drives_its_first_seed(tmp_path: Path) -> None:
     import shutil
 
-    from d3dwa_bullet.methods import make_controller
+    from d3dwa_bullet.controllers import make_controller
 
     for k in (3, 1):
         shutil.copytree(policies_dir() / "d3dwa" / "seed-0", tmp_path / "d3dwa" / f"seed-{k}")

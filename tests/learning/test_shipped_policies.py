@@ -10,18 +10,13 @@ import json
 import numpy as np
 import pytest
 
+from d3dwa_bullet.controllers import default_policy_path, make_controller
 from d3dwa_bullet.errors import CheckpointError
 from d3dwa_bullet.evaluation.policy_runs import check_one_experiment
 from d3dwa_bullet.learning.agents.policy import load_policy
 from d3dwa_bullet.learning.training import load_train_config
-from d3dwa_bullet.methods import (
-    LEARNED,
-    UNSHIPPED,
-    Controller,
-    default_policy_path,
-    make_controller,
-    method_observation,
-)
+from d3dwa_bullet.method_specs import LEARNED, UNSHIPPED, method_observation
+from d3dwa_bullet.planning.controller import Controller
 from d3dwa_bullet.resources import configs_dir
 from d3dwa_bullet.seed_dirs import seed_dirs
 

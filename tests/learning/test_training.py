@@ -366,8 +366,8 @@ def test_a_decision_period_run_counts_decisions_and_its_policy_holds(
     """Beyond the paper: decision_steps 3 makes one env step three control steps; the saved
     policy says so, and the controller built from it, or from its ONNX export, holds each
     action three steps."""
+    from d3dwa_bullet.controllers import make_controller
     from d3dwa_bullet.learning.agents.onnx_export import export_onnx
-    from d3dwa_bullet.methods import make_controller
 
     out = tmp_path / "run"
     summary = train(_config(tiny, total_steps=60, decision_steps=3), out, progress=False)
@@ -394,7 +394,7 @@ def test_a_recovery_run_trains_and_validates_inside_the_layer(tiny: str, tmp_pat
     assert load_train_config(out / "config.json").recovery == "nav2"
     # the policy says so, and so does every controller built from it
     assert load_checkpoint(out / "policy")[1]["metadata"]["recovery"] == "nav2"
-    from d3dwa_bullet.methods import make_controller
+    from d3dwa_bullet.controllers import make_controller
 
     assert "recovery layer 'nav2'" in make_controller("d3dwa", policy_path=out / "policy").source
     with pytest.raises(ConfigError, match="TrainConfig.recovery.*'spin'"):

@@ -10,8 +10,8 @@ import pytest
 
 pytest.importorskip("kachaka_api", reason="the robot extra is not installed")
 
+from d3dwa_bullet.controllers import make_controller  # noqa: E402
 from d3dwa_bullet.episode import run_episode  # noqa: E402
-from d3dwa_bullet.methods import make_controller  # noqa: E402
 from d3dwa_bullet.world.registry import load_world  # noqa: E402
 from tests.support.cli import run  # noqa: E402
 

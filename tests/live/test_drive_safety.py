@@ -9,6 +9,7 @@ import pytest
 
 pytest.importorskip("kachaka_api", reason="the robot extra is not installed")
 
+from d3dwa_bullet.controllers import make_controller  # noqa: E402
 from d3dwa_bullet.errors import RobotLinkError  # noqa: E402
 from d3dwa_bullet.live import (  # noqa: E402
     DriveResult,
@@ -17,7 +18,6 @@ from d3dwa_bullet.live import (  # noqa: E402
     SimulatedKachaka,
     drive,
 )
-from d3dwa_bullet.methods import make_controller  # noqa: E402
 from d3dwa_bullet.world.registry import load_world  # noqa: E402
 from tests.support.cli import refused  # noqa: E402
 from transfer.sim_bridge import ReplayPipeline  # noqa: E402

@@ -15,10 +15,10 @@ import pytest
 
 pytest.importorskip("kachaka_api", reason="the robot extra is not installed")
 
+from d3dwa_bullet.controllers import make_controller  # noqa: E402
 from d3dwa_bullet.episode import EpisodeConfig, run_episode  # noqa: E402
 from d3dwa_bullet.evaluation.jobs import make_noise  # noqa: E402
 from d3dwa_bullet.learning.agents.onnx_export import export_onnx  # noqa: E402
-from d3dwa_bullet.methods import make_controller  # noqa: E402
 from d3dwa_bullet.params import recovery_params  # noqa: E402
 from d3dwa_bullet.resources import policies_dir  # noqa: E402
 from d3dwa_bullet.world.registry import load_world  # noqa: E402

@@ -14,6 +14,7 @@ pytest.importorskip("kachaka_api", reason="the robot extra is not installed")
 
 from kachaka_api.generated import kachaka_api_pb2 as pb2  # noqa: E402
 
+from d3dwa_bullet.controllers import make_controller  # noqa: E402
 from d3dwa_bullet.errors import RobotLinkError, ScanError  # noqa: E402
 from d3dwa_bullet.live import (  # noqa: E402
     DriveResult,
@@ -30,7 +31,6 @@ from d3dwa_bullet.live.safety import (  # noqa: E402
     OdometryCheck,
     ScanContract,
 )
-from d3dwa_bullet.methods import make_controller  # noqa: E402
 from d3dwa_bullet.params import ObservationParams  # noqa: E402
 from d3dwa_bullet.sim.lidar_params import LidarParams  # noqa: E402
 from d3dwa_bullet.sim.scan import LaserScan  # noqa: E402

@@ -8,9 +8,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import Episode, recovery_result, run_episode
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.methods import make_controller, method_observation
+from d3dwa_bullet.method_specs import method_observation
 from d3dwa_bullet.params import PROGRESS_RADIUS, PROGRESS_WINDOW, ProgressObservationParams
 from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT, build_observation
 from d3dwa_bullet.planning.planner import PlannerAction

@@ -9,10 +9,11 @@ import numpy as np
 import pybullet as p
 import pytest
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import Episode, EpisodeResult, run_episode
 from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.geometry import wrap_angle
-from d3dwa_bullet.methods import FIXED, make_controller
+from d3dwa_bullet.method_specs import FIXED
 from d3dwa_bullet.params import PlannerParams
 from d3dwa_bullet.planning.observation import build_observation, sector_ranges
 from d3dwa_bullet.planning.planner import plan

@@ -6,9 +6,9 @@ import json
 
 import pytest
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import run_episode
 from d3dwa_bullet.evaluation.jobs import make_noise
-from d3dwa_bullet.methods import make_controller
 from d3dwa_bullet.world.registry import load_world
 from tools.experiments import random_hold
 

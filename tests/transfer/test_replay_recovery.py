@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import EpisodeConfig
-from d3dwa_bullet.methods import make_controller
 from d3dwa_bullet.params import recovery_params
 from transfer.bag_writer import BagRecorder
 from transfer.replay import replay_bag

@@ -15,11 +15,11 @@ import pytest
 import yaml
 from rosbags.highlevel import AnyReader
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import EpisodeConfig, EpisodeResult, run_episode
 from d3dwa_bullet.episode_metrics import body_clearance, posture_displacement, trajectory_length
 from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.learning.agents import D3QNAgent, D3QNConfig, save_checkpoint
-from d3dwa_bullet.methods import make_controller
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
 from d3dwa_bullet.resources import profiles_dir
 from d3dwa_bullet.world.registry import load_world

@@ -29,8 +29,8 @@ import argparse
 import json
 import time
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import Episode, EpisodeConfig
-from d3dwa_bullet.methods import make_controller
 from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.world.registry import load_world
 

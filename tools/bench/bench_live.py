@@ -28,9 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.learning.agents.onnx_export import export_onnx
 from d3dwa_bullet.live import DriveResult, DriveSettings, KachakaLink, drive, warm_up
-from d3dwa_bullet.methods import Controller, make_controller
+from d3dwa_bullet.planning.controller import Controller
 from d3dwa_bullet.resources import policies_dir
 from transfer.sim_bridge import ReplayPipeline
 

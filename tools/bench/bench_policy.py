@@ -25,13 +25,14 @@ from pathlib import Path
 
 import numpy as np
 
+from d3dwa_bullet.controllers import one_policy
 from d3dwa_bullet.errors import CheckpointError
 from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 from d3dwa_bullet.learning.agents.onnx_export import export_onnx, sample_observations
 from d3dwa_bullet.learning.agents.onnx_policy import load_onnx_policy
 from d3dwa_bullet.learning.agents.policy import load_policy
-from d3dwa_bullet.methods import LEARNED, method_observation, one_policy
+from d3dwa_bullet.method_specs import LEARNED, method_observation
 
 WARM_UP = 100
 

@@ -29,7 +29,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from d3dwa_bullet.methods import LEARNED, NO_POLICY, default_policy_path, one_policy
+from d3dwa_bullet.controllers import default_policy_path, one_policy
+from d3dwa_bullet.method_specs import LEARNED, needs_policy
 from transfer.bag_writer import BagRecorder
 from transfer.replay import replay_bag
 from transfer.sim_bridge import make_step_fn, record_episode
@@ -88,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="bench_replay_") as tmp:
         work = Path(tmp)
         policy = args.policy
-        if policy is None and args.method not in NO_POLICY:
+        if policy is None and needs_policy(args.method):
             shipped = default_policy_path(args.method)
             policy = (
                 one_policy(args.method)[0]

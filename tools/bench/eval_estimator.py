@@ -24,10 +24,10 @@ from typing import Any
 
 import numpy as np
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import Episode, run_episode
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation.jobs import make_noise
-from d3dwa_bullet.methods import make_controller
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult
 from d3dwa_bullet.world.registry import load_world
 

@@ -27,7 +27,7 @@ from d3dwa_bullet.evaluation.jobs import log_name
 from d3dwa_bullet.evaluation.results import job_rows, load_log, recovery_of, row_key
 from d3dwa_bullet.evaluation.sweep_settings import PROFILES
 from d3dwa_bullet.io import atomic_savefig
-from d3dwa_bullet.methods import LABELS
+from d3dwa_bullet.method_specs import LABELS
 
 
 def failure_records(out: Path) -> list[dict[str, Any]]:

@@ -23,8 +23,8 @@ import numpy as np
 
 from d3dwa_bullet.episode import Episode, EpisodeConfig, EpisodeResult, run_episode
 from d3dwa_bullet.geometry import arc_step
-from d3dwa_bullet.methods import Controller
 from d3dwa_bullet.planning.actions import ActionSet
+from d3dwa_bullet.planning.controller import Controller
 from d3dwa_bullet.planning.observation import goal_in_body
 from d3dwa_bullet.planning.planner import plan
 from d3dwa_bullet.world.grid import Grid

@@ -24,8 +24,8 @@ from typing import Any
 
 from tqdm import tqdm
 
+from d3dwa_bullet.backends import run_local
 from d3dwa_bullet.errors import D3DWAError
-from d3dwa_bullet.evaluation.backends import run_local
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
 from d3dwa_bullet.world.registry import list_worlds, load_world
 from tools.experiments.oracle import ORACLE, fixed_action_outcome, run_oracle

@@ -22,10 +22,11 @@ from typing import Any
 
 import numpy as np
 
+from d3dwa_bullet.backends import run_local
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.errors import D3DWAError
-from d3dwa_bullet.evaluation.backends import run_local
 from d3dwa_bullet.evaluation.jobs import Job, run_job
-from d3dwa_bullet.methods import NO_POLICY, check_method, make_controller
+from d3dwa_bullet.method_specs import check_method, needs_policy
 from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.registry import load_world
 from d3dwa_bullet.world.route_start import route_polyline, route_pose
@@ -54,7 +55,7 @@ def probe(
     the learned methods'; a fixed or reference method needs none)."""
     route = route_polyline(world)
     starts = {f: start_world(world, route, f) for f in fractions}
-    policies = {m: None if m in NO_POLICY else policy for m in methods}
+    policies = {m: None if not needs_policy(m) else policy for m in methods}
     jobs = [Job(starts[f], m, seed, policy=policies[m]) for f in fractions for m in methods]
     done = dict(run_local(_run, jobs, None, workers))
     rows = []
@@ -111,7 +112,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             route_pose(route, f)  # ConfigError for a fraction outside [0, 1)
         for m in methods:
             # a bad policy path fails here, not in a worker
-            make_controller(m, None if m in NO_POLICY else args.policy)
+            make_controller(m, None if not needs_policy(m) else args.policy)
     except D3DWAError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

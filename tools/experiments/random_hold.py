@@ -21,11 +21,12 @@ import json
 import sys
 from dataclasses import replace
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import run_episode
 from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, D3DWAError
 from d3dwa_bullet.evaluation.jobs import make_noise
-from d3dwa_bullet.methods import REFERENCE, make_controller
+from d3dwa_bullet.method_specs import REFERENCE
 from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
 from d3dwa_bullet.world.registry import load_world

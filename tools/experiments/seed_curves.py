@@ -23,7 +23,7 @@ from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.io import atomic_savefig
 from d3dwa_bullet.learning.training.logs import read_metrics
 from d3dwa_bullet.loading import load_json
-from d3dwa_bullet.methods import LABELS
+from d3dwa_bullet.method_specs import LABELS
 from d3dwa_bullet.seed_dirs import kept_evaluation, seed_dirs
 
 

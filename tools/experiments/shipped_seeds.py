@@ -25,7 +25,7 @@ from typing import Any
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.learning.value_calibration import ValueCalibration
 from d3dwa_bullet.loading import load_json
-from d3dwa_bullet.methods import LEARNED
+from d3dwa_bullet.method_specs import LEARNED
 from d3dwa_bullet.resources import policies_dir
 from d3dwa_bullet.seed_dirs import kept_evaluation, seed_dirs
 

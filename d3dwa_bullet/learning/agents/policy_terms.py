@@ -3,7 +3,7 @@ and the recovery layer it trained inside.
 
 A policy trained with ``decision_steps`` k > 1 (beyond the paper, docs/design.md#decision-period)
 chose once per k control steps, so whatever drives it must hold each action as long
-(``methods.Controller.hold``); one trained inside a recovery layer (docs/design.md#recovery)
+(``planning.controller.Controller.hold``); one trained inside a recovery layer (docs/design.md#recovery)
 met the states that layer leaves it, so a run without it is not the run it learned for.
 Both are read from a checkpoint's meta.json (``metadata.decision_steps``,
 ``metadata.recovery``) and from an exported ONNX file's metadata (``onnx_policy``), and
@@ -19,11 +19,11 @@ from collections.abc import Mapping
 from typing import Any
 
 from d3dwa_bullet.errors import CheckpointError
+from d3dwa_bullet.limits import MAX_DECISION_STEPS as DECISION_LIMIT
 from d3dwa_bullet.params import RECOVERY_KINDS
 
-MAX_DECISION_STEPS = 100
-"""Longest decision period, control steps (10 s at 10 Hz): the bound training configs and the
-env accept for ``decision_steps``."""
+MAX_DECISION_STEPS = int(DECISION_LIMIT.value)
+"""Longest decision period, control steps (its one home: ``limits.MAX_DECISION_STEPS``)."""
 DEFAULT_DECISION_STEPS = 1
 """The paper's agent: one decision every control step."""
 DEFAULT_RECOVERY = RECOVERY_KINDS[0]

@@ -23,7 +23,7 @@ from d3dwa_bullet.learning.env import D3DWAEnv
 from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, resolve_world
 from d3dwa_bullet.limits import MAX_TOTAL_STEPS, check_processes, check_weights
 from d3dwa_bullet.loading import load_yaml
-from d3dwa_bullet.methods import LEARNED, method_observation
+from d3dwa_bullet.method_specs import LEARNED, method_observation
 from d3dwa_bullet.params import RECOVERY_KINDS, RewardParams, recovery_params
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.progress import check_observation_kind, observation_layout

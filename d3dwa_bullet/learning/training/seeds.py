@@ -26,9 +26,9 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from d3dwa_bullet.backends import check_address, ray_session
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import BusyError, ConfigError, D3DWAError, TrainingError
-from d3dwa_bullet.evaluation.backends import check_address, ray_session
 from d3dwa_bullet.learning.training.checkpoints import export_policy
 from d3dwa_bullet.learning.training.config import TrainConfig, check_selection_rule
 from d3dwa_bullet.learning.training.interrupt import StopOnInterrupt

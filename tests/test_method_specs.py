@@ -7,22 +7,22 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import run_episode
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.evaluation.policy_runs import PolicyRun, method_runs, policy_digests
-from d3dwa_bullet.methods import (
+from d3dwa_bullet.method_specs import (
     FIXED,
     LABELS,
     LEARNED,
     METHODS,
-    NO_POLICY,
     REFERENCE,
-    Controller,
-    make_controller,
     method_family,
+    needs_policy,
 )
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
+from d3dwa_bullet.planning.controller import Controller
 
 OBS = np.zeros(12)
 
@@ -35,7 +35,7 @@ def draws(seed: int, n: int) -> list[int]:
 
 
 def test_random_is_a_reference_method_without_a_policy():
-    assert "random" in METHODS and "random" in NO_POLICY and "random" not in FIXED
+    assert "random" in METHODS and not needs_policy("random") and "random" not in FIXED
     assert method_family("random") == "reference" and method_family("dwa1") == "fixed"
     assert method_family("d3dwa") == "learned"
     assert LABELS["random"] == "Random (uniform over 100 actions)"
@@ -46,7 +46,7 @@ def test_random_is_a_reference_method_without_a_policy():
 
 
 def test_random_weights_draws_uniformly_over_the_25_weights_only_actions():
-    assert method_family("random-weights") == "reference" and "random-weights" in NO_POLICY
+    assert method_family("random-weights") == "reference" and not needs_policy("random-weights")
     assert LABELS["random-weights"] == "Random (uniform over 25 actions)"
     controller = make_controller("random-weights")
     assert controller.actions == ACTIONS_WEIGHTS_ONLY and controller.source == "reference"
