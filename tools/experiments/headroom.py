@@ -30,7 +30,7 @@ from d3dwa_bullet.evaluation.results import job_rows
 from d3dwa_bullet.evaluation.seed_stats import mean_interval
 from d3dwa_bullet.evaluation.seed_tables import success_scores
 from d3dwa_bullet.evaluation.sweep import profile_of
-from d3dwa_bullet.methods import FIXED
+from d3dwa_bullet.method_specs import FIXED
 
 DEFAULT_SWITCH = {"none": "d3dwa", "paper": "d3dwa", "real": "d3dwa", "harsh": "dwa3"}
 SWITCH = "headroom"

@@ -27,12 +27,13 @@ from typing import Any
 
 import numpy as np
 
+from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import Episode, run_episode
 from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.evaluation.results import job_rows, recovery_of
-from d3dwa_bullet.methods import NO_POLICY, make_controller
+from d3dwa_bullet.method_specs import needs_policy
 from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.planning.actions import PlannerAction
 from d3dwa_bullet.planning.planner import PlanResult
@@ -58,7 +59,7 @@ def steps_of(row: dict[str, Any], config: EpisodeConfig) -> dict[str, np.ndarray
     """Per-step records of a sweep row's episode, re-run with the step hook."""
     method, seed = row["method"], int(row["seed"])
     policy = None
-    if method not in NO_POLICY:
+    if needs_policy(method):
         policy = policies_dir() / method / f"seed-{row['policy_seed']}"
     controller = make_controller(method, policy)
     out: dict[str, list[float]] = defaultdict(list)
