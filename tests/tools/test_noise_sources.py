@@ -11,7 +11,7 @@ from d3dwa_bullet.evaluation.jobs import log_name
 from d3dwa_bullet.evaluation.results import CSV_FIELDS, appending_rows, row_key
 from randomization import load_profile
 from tests.evaluation.test_failures import log
-from tools.experiments import headroom, noise_sources
+from tools.experiments import headroom, noise_sources, regime_probe
 from tools.experiments.storm_steps import storm_onsets, summarise
 
 
@@ -100,3 +100,21 @@ def test_storm_onsets_and_windows():
     assert s["storms"] == 2 and s["all"]["steps"] == n
     assert s["before_storm"]["steps"] == 1 + 30  # step 0, then steps 10-39 before the second
     assert s["fallback_steps"]["admissible"] == 0.0
+
+
+def test_the_regime_probe_tells_two_regimes_apart_only_where_the_inputs_differ(tmp_path):
+    rng = np.random.default_rng(0)
+
+    def episode(noisy: bool) -> dict:
+        obs = rng.uniform(0.3, 1.0, (60, 12))
+        if noisy:  # a regime that shows in one observation: a short sector now and then
+            obs[::2, 5] = 0.05
+        return {"observations": obs, "tau": np.full(60, 4.0)}
+
+    data = {f"L{i}": [episode(False), episode(True)] for i in range(6)}
+    windows = {w: [regime_probe.windows(e, 3, 1) for e in per] for w, per in data.items()}
+    assert windows["L0"][0].shape == (58, 3 * 13)
+    one = regime_probe.accuracy(windows, 13, epochs=20)
+    assert 0.55 < one["accuracy"] < 0.75  # half the noisy steps look clean: at most 0.75
+    history = regime_probe.accuracy(windows, 3 * 13, epochs=20)
+    assert history["accuracy"] > one["accuracy"] + 0.1  # every window of three shows it
