@@ -95,14 +95,17 @@ def reference_of(name: str) -> tuple[str, int] | None:
     if not mark:
         return base, 1
     digits = period.lstrip("0")
-    if not (period.isascii() and period.isdigit()) or not digits:
+    if not (period.isascii() and period.isdigit()) or not digits or digits != period:
         raise ConfigError(
             f"method {name[:40]!r}: decision period {period[:20]!r} is not a whole number of "
             f"control steps >= 1 (e.g. {base}{HOLD_MARK}{SHIPPED_DECISION_STEPS})"
         )
-    # more than 9 digits is over any bound; int() of thousands of digits would raise
-    steps = int(digits) if len(digits) <= 9 else 10**9
-    MAX_DECISION_STEPS.check(f"method {name[:40]!r}: decision period", steps, "control steps")
+    if len(digits) > 20:  # over any bound; int() of thousands of digits would raise
+        raise ConfigError(
+            f"method {name[:40]!r}...: decision period of {len(digits)} digits is over the "
+            f"limit of {MAX_DECISION_STEPS.value} control steps"
+        )
+    MAX_DECISION_STEPS.check(f"method {name!r}: decision period", int(digits), "control steps")
     return base, int(period)
 
 

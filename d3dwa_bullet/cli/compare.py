@@ -81,7 +81,7 @@ def _side(out: Path, method: str, warn: bool = True) -> tuple[list[dict[str, Any
 
 def cmd_compare(args: argparse.Namespace) -> int:
     from d3dwa_bullet.evaluation.seed_tables import improvement, improvement_table
-    from d3dwa_bullet.method_specs import LABELS, check_method
+    from d3dwa_bullet.method_specs import check_method, method_label
     from d3dwa_bullet.world.registry import world_groups
 
     names = [m.strip() for m in args.methods.split(",") if m.strip()]
@@ -96,8 +96,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     # one method on both sides: its runs are told apart by their directory's recovery
     key_a, key_b = (f"{a} [A]", f"{b} [B]") if same else (a, b)
     labels = {
-        key_a: LABELS.get(a, a) + (f" + recovery {rec_a}" if rec_a != "none" else ""),
-        key_b: LABELS.get(b, b) + (f" + recovery {rec_b}" if rec_b != "none" else ""),
+        key_a: method_label(a) + (f" + recovery {rec_a}" if rec_a != "none" else ""),
+        key_b: method_label(b) + (f" + recovery {rec_b}" if rec_b != "none" else ""),
     }
     if same and labels[key_a] == labels[key_b]:
         labels[key_a] += f" ({out})"
