@@ -231,15 +231,24 @@ def improvement_table(
     where they are not the methods' (e.g. one method with and without recovery)."""
     names = labels or {}
     la, lb = names.get(a, method_label(a)), names.get(b, method_label(b))
+    paired = any("paired_p" in r for r in records)
+    extra = " pairs | A better / worse | paired p (A > B) |" if paired else ""
     lines = [
-        f"| tasks | n | runs {la} | runs {lb} | P({la} > {lb}) | 95 % interval |",
-        "|---|---:|---:|---:|---:|---|",
+        f"| tasks | n | runs {la} | runs {lb} | P({la} > {lb}) | 95 % interval |{extra}",
+        "|---|---:|---:|---:|---:|---|" + ("---:|---:|---:|" if paired else ""),
     ]
     for r in records:
-        lines.append(
+        line = (
             f"| {r['group']} | {r['tasks']} | {r['runs_a']} | {r['runs_b']} | {r['p']:.2f} | "
             f"[{r['low']:.2f}, {r['high']:.2f}] |"
         )
+        if paired:
+            p = r.get("paired_p")
+            line += (
+                f" {r.get('paired_units', 0)} | {r.get('paired_wins', 0)} / "
+                f"{r.get('paired_losses', 0)} | {'--' if p is None else f'{p:.3g}'} |"
+            )
+        lines.append(line)
     return "\n".join(lines) + "\n"
 
 
