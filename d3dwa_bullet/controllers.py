@@ -18,7 +18,6 @@ from d3dwa_bullet.method_specs import (
     LEARNED,
     ONNX_METHODS,
     REFERENCE,
-    UNSHIPPED,
     check_method,
     method_family,
     method_observation,
@@ -137,12 +136,6 @@ def one_policy(name: str, policy_path: str | Path | None = None) -> tuple[Path, 
     seeds, its lowest seed, never one chosen by its results (``d3dwa eval`` and ``d3dwa
     sweep`` drive every seed). CheckpointError if there is none."""
     path = Path(policy_path) if policy_path is not None else default_policy_path(name)
-    if not path.exists() and policy_path is None and name in UNSHIPPED:
-        raise CheckpointError(
-            f"{path}: method {name!r} ships no policy: {UNSHIPPED[name]}; train its seeds with "
-            f"`d3dwa train --method {name} --seeds 0-4 --out runs/{name} --export "
-            f"my_policies/{name}` and pass --policy my_policies/{name}"
-        )
     if not path.exists():
         raise CheckpointError(
             f"{path}: no policy for method {name!r}; train one with `d3dwa train --method {name}` "

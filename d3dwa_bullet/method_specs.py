@@ -50,26 +50,13 @@ LEARNED: dict[str, ActionSet] = {
     "d3dwa-weights": ACTIONS_WEIGHTS_ONLY,
     "d3dwa": ACTIONS_FULL,
     "d3dwa-dr": ACTIONS_FULL,
-    "d3dwa-pa": ACTIONS_FULL,
-    "d3dwa-pa-dr": ACTIONS_FULL,
 }
 #: The observation kind a learned method's policy reads when it is not the paper's 12-d state
-#: (docs/design.md#observation-kinds). Every registered method reads the paper's today.
-OBSERVATIONS: dict[str, str] = {"d3dwa-pa": "progress", "d3dwa-pa-dr": "progress"}
+#: (docs/design.md#progress-observation). Every registered method reads the paper's since the
+#: progress-aware methods, which shipped nothing, left the registry (issue 41).
+OBSERVATIONS: dict[str, str] = {}
 #: Learned methods whose policy is a network, so exports to ONNX (dqdwa's is a Q-table).
 ONNX_METHODS = tuple(m for m in LEARNED if m != "dqdwa")
-#: Methods beyond the paper (SPEC sections 4 and 6): they sit beside the paper's methods and
-#: never change the paper's track, so the main job and its tables leave them out unless named.
-BEYOND_PAPER = frozenset({"d3dwa-pa", "d3dwa-pa-dr"})
-#: Learned methods that ship no policy, and why: a command that would load the shipped policy
-#: says this in its one line instead of "no policy". The seeds of the diverging learner were
-#: retired (docs/results.md#retired-seeds); a method leaves this map when the seeds of its
-#: committed config ship.
-RETIRED = "its seeds of the diverging learner were retired (docs/results.md#retired-seeds)"
-UNSHIPPED: dict[str, str] = {
-    "d3dwa-pa": RETIRED,
-    "d3dwa-pa-dr": RETIRED,
-}
 #: The methods by name, in table order; a reference method also takes any other decision
 #: period (``random@5``), which :func:`check_method` accepts.
 METHODS = tuple(FIXED) + tuple(REFERENCE) + HELD_REFERENCE + tuple(LEARNED)
@@ -94,8 +81,6 @@ LABELS = {
     "d3dwa-weights": "D3DWA (w/o horizon)",
     "d3dwa": "D3DWA",
     "d3dwa-dr": "D3DWA (randomised)",
-    "d3dwa-pa": "D3DWA-PA (beyond paper)",
-    "d3dwa-pa-dr": "D3DWA-PA (randomised)",
 }
 
 
@@ -110,14 +95,17 @@ def reference_of(name: str) -> tuple[str, int] | None:
     if not mark:
         return base, 1
     digits = period.lstrip("0")
-    if not (period.isascii() and period.isdigit()) or not digits:
+    if not (period.isascii() and period.isdigit()) or not digits or digits != period:
         raise ConfigError(
             f"method {name[:40]!r}: decision period {period[:20]!r} is not a whole number of "
             f"control steps >= 1 (e.g. {base}{HOLD_MARK}{SHIPPED_DECISION_STEPS})"
         )
-    # more than 9 digits is over any bound; int() of thousands of digits would raise
-    steps = int(digits) if len(digits) <= 9 else 10**9
-    MAX_DECISION_STEPS.check(f"method {name[:40]!r}: decision period", steps, "control steps")
+    if len(digits) > 20:  # over any bound; int() of thousands of digits would raise
+        raise ConfigError(
+            f"method {name[:40]!r}...: decision period of {len(digits)} digits is over the "
+            f"limit of {MAX_DECISION_STEPS.value} control steps"
+        )
+    MAX_DECISION_STEPS.check(f"method {name!r}: decision period", int(digits), "control steps")
     return base, int(period)
 
 

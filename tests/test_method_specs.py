@@ -6,23 +6,32 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import yaml
 
+from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import run_episode
-from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.errors import ConfigError, UnknownNameError
 from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.evaluation.policy_runs import PolicyRun, method_runs, policy_digests
 from d3dwa_bullet.method_specs import (
     FIXED,
+    HELD_REFERENCE,
     LABELS,
     LEARNED,
     METHODS,
     REFERENCE,
+    SHIPPED_DECISION_STEPS,
+    check_method,
+    floors_of,
     method_family,
+    method_label,
     needs_policy,
+    reference_of,
 )
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
 from d3dwa_bullet.planning.controller import Controller
+from d3dwa_bullet.resources import configs_dir
 
 OBS = np.zeros(12)
 
@@ -196,3 +205,60 @@ def test_each_reference_method_plots_in_its_own_grey_and_the_others_keep_their_c
     assert all(c[0] == c[1] == c[2] for c in greys) and greys[0] != greys[1]
     assert colours["d3dwa"] == method_colours(["d3dwa"])["d3dwa"]
     assert len(set(colours["dwa1"][:3])) > 1  # a contender is not grey
+
+
+def test_the_default_tables_hold_the_reference_for_the_shipped_decision_period():
+    assert HELD_REFERENCE == ("random@10", "random-weights@10")
+    for config in configs_dir().glob("*.yaml"):  # the held floor is the shipped policies' period
+        assert yaml.safe_load(config.read_text())["decision_steps"] == SHIPPED_DECISION_STEPS
+    assert reference_of("random@10") == ("random", 10) and reference_of("random") == ("random", 1)
+    assert reference_of("d3dwa") is None and method_family("random-weights@3") == "reference"
+    assert method_label("random@10") == "Random (uniform over 100 actions, held 10 steps)"
+    assert method_label("random-weights@7") == "Random (uniform over 25 actions, held 7 steps)"
+    assert floors_of("d3dwa") == ("random", "random@10")
+    assert floors_of("dqdwa") == ("random-weights", "random-weights@10")
+    controller = make_controller("random-weights@10")
+    assert controller.hold == 10 and controller.actions == ACTIONS_WEIGHTS_ONLY
+
+
+def test_held_10_changes_the_action_only_every_10_steps_and_draws_the_same_stream():
+    controller = make_controller("random@10")
+    controller.reset(5)
+    held = [controller(OBS)[0] for _ in range(60)]
+    assert all(held[k] == held[k - k % 10] for k in range(60))
+    assert held[::10] == draws(5, 6)  # one draw per decision, from the same stream
+    assert len(set(held[::10])) > 1
+
+
+def test_the_held_reference_with_hold_1_is_the_every_step_references_episode(post_world):
+    world = post_world.with_task(time_limit=3.0)
+    for base in REFERENCE:
+        every = run_episode(world, make_controller(base), seed=4)
+        held_1 = run_episode(world, make_controller(f"{base}@1"), seed=4)
+        assert every.summary() | {"method": ""} == held_1.summary() | {"method": ""}
+        for k in every.log:
+            assert np.array_equal(every.log[k], held_1.log[k]), k
+    held = run_episode(world, make_controller("random@10"), seed=4).log["action"].astype(int)
+    assert held.tolist() == [a for a in draws(4, 3) for _ in range(10)]
+
+
+@pytest.mark.parametrize(
+    ("name", "says"),
+    [
+        ("random@0", "decision period '0' is not a whole number of control steps >= 1"),
+        ("random@-1", "decision period '-1' is not a whole number"),
+        ("random-weights@1.5", "decision period '1.5' is not a whole number"),
+        ("random@", "decision period '' is not a whole number"),
+        ("random@101", "decision period: 101 control steps is over the limit of 100"),
+        ("random@99999999999", "decision period: 99999999999 control steps is over the limit"),
+    ],
+)
+def test_a_bad_decision_period_is_refused_naming_it(name, says, capsys):
+    with pytest.raises(ConfigError) as err:
+        check_method(name)
+    assert says in str(err.value) and name[:12] in str(err.value)
+    assert main(["eval", "--methods", name, "--worlds", "R1", "--out", "/nonexistent/x"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and says in lines[0]
+    with pytest.raises(UnknownNameError):
+        check_method("dwa1@10")  # only a reference method takes a decision period

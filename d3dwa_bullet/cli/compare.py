@@ -8,6 +8,12 @@ the shipped world groups (train, unseen, real) of a ``d3dwa eval`` directory, or
 groups (shipped, generated) of a ``d3dwa sweep`` directory, each under its noise, then
 every layout under each noise, then all tasks.
 
+Beside each P(A > B), a test paired by layout: the one-sided Wilcoxon signed-rank p-value of
+A > B over the (layout, noise, evaluation seed) both ran, each side's success there averaged
+over its training seeds (:mod:`d3dwa_bullet.evaluation.paired`, docs/design.md#paired-test).
+Two methods sharing fewer than two layouts are refused in one line. ``--methods A`` alone, A
+a learned method, compares A with both its floors present in DIR (every step and held).
+
 ``--against DIR2`` takes B's runs from a second directory: the same method with and without
 the recovery layer (``d3dwa compare rec --against norec --methods dwa3,dwa3``), whose runs
 never share a directory. Each side is labelled with its recovery setting.
@@ -29,7 +35,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "compare", help="P(A improves on B) over training seeds, per world group and overall"
     )
     p.add_argument("dir", help="a results directory of `d3dwa eval` or `d3dwa sweep`")
-    p.add_argument("--methods", required=True, help="A,B: two methods present in DIR")
+    p.add_argument(
+        "--methods",
+        required=True,
+        help="A,B: two methods present in DIR; or a learned method A alone: A against both its "
+        "floors (random@10 and random, or their weights-only twins)",
+    )
     p.add_argument(
         "--against",
         metavar="DIR2",
@@ -51,18 +62,10 @@ def _side(out: Path, method: str, warn: bool = True) -> tuple[list[dict[str, Any
     """(rows of method in results directory out, its recovery setting, complete?); one line
     naming what is wrong with the directory otherwise."""
     # start-up cost: SciPy's bootstrap (~0.5 s); no simulator, no torch
-    from d3dwa_bullet.evaluation.results import (
-        check_results_dir,
-        completion,
-        job_rows,
-        recovery_of,
-    )
+    from d3dwa_bullet.evaluation.results import completion, recovery_of
     from d3dwa_bullet.evaluation.seed_tables import check_not_mixed
 
-    if not (out / "results.csv").is_file():
-        raise ResultsError(f"{out}: not a results directory (no results.csv)")
-    check_results_dir(out)
-    rows = job_rows(out)
+    rows = job_rows_of(out)
     check_not_mixed(rows, str(out / "results.csv"))
     present = {r["method"] for r in rows}
     if method not in present:
@@ -80,15 +83,49 @@ def _side(out: Path, method: str, warn: bool = True) -> tuple[list[dict[str, Any
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from d3dwa_bullet.evaluation.seed_tables import improvement, improvement_table
-    from d3dwa_bullet.method_specs import LABELS, check_method
-    from d3dwa_bullet.world.registry import world_groups
+    from d3dwa_bullet.method_specs import check_method, floors_of, method_family
 
     names = [m.strip() for m in args.methods.split(",") if m.strip()]
+    if len(names) == 1 and not args.against and method_family(check_method(names[0])) == "learned":
+        out = Path(args.dir)
+        rows = job_rows_of(out)
+        present = {r["method"] for r in rows}
+        floors = [f for f in floors_of(names[0]) if f in present]
+        if not floors:
+            raise ResultsError(
+                f"{out / 'results.csv'}: no floor of method {names[0]!r} "
+                f"({', '.join(floors_of(names[0]))}) to compare it with"
+            )
+        for floor in floors:
+            _compare(args, names[0], floor)
+        return 0
     same = len(names) == 2 and names[0] == names[1]
     if len(names) != 2 or (same and not args.against):
         raise ConfigError(f"--methods needs two different methods A,B, got {args.methods!r}")
     a, b = (check_method(m) for m in names)
+    _compare(args, a, b)
+    return 0
+
+
+def job_rows_of(out: Path) -> list[dict[str, Any]]:
+    """The rows of results directory out (ResultsError if it is not one)."""
+    # start-up cost: SciPy's bootstrap (~0.5 s); no simulator, no torch
+    from d3dwa_bullet.evaluation.results import check_results_dir, job_rows
+
+    if not (out / "results.csv").is_file():
+        raise ResultsError(f"{out}: not a results directory (no results.csv)")
+    check_results_dir(out)
+    return job_rows(out)
+
+
+def _compare(args: argparse.Namespace, a: str, b: str) -> None:
+    # start-up cost: SciPy (~0.5 s), only for this command
+    from d3dwa_bullet.evaluation.paired import check_layouts, paired_by_group, paired_scores
+    from d3dwa_bullet.evaluation.seed_tables import improvement, improvement_table
+    from d3dwa_bullet.method_specs import method_label
+    from d3dwa_bullet.world.registry import world_groups
+
+    same = a == b
     out = Path(args.dir)
     other = Path(args.against) if args.against else out
     rows_a, rec_a, complete_a = _side(out, a)
@@ -96,27 +133,32 @@ def cmd_compare(args: argparse.Namespace) -> int:
     # one method on both sides: its runs are told apart by their directory's recovery
     key_a, key_b = (f"{a} [A]", f"{b} [B]") if same else (a, b)
     labels = {
-        key_a: LABELS.get(a, a) + (f" + recovery {rec_a}" if rec_a != "none" else ""),
-        key_b: LABELS.get(b, b) + (f" + recovery {rec_b}" if rec_b != "none" else ""),
+        key_a: method_label(a) + (f" + recovery {rec_a}" if rec_a != "none" else ""),
+        key_b: method_label(b) + (f" + recovery {rec_b}" if rec_b != "none" else ""),
     }
     if same and labels[key_a] == labels[key_b]:
         labels[key_a] += f" ({out})"
         labels[key_b] += f" ({other})"
     rows = [r | {"method": key_a} for r in rows_a] + [r | {"method": key_b} for r in rows_b]
+    source = f"{out / 'results.csv'}" + (f" and {other / 'results.csv'}" if args.against else "")
+    check_layouts(paired_scores(rows, key_a, key_b), a, b, source)
     shipped = world_groups()
     records = improvement(rows, key_a, key_b, lambda r: _groups_of(r, shipped))
+    group_of = {(r["world"], r["noise"], int(r["seed"])): _groups_of(r, shipped) for r in rows}
+    paired = paired_by_group(rows, key_a, key_b, group_of)
+    for record in records:
+        test = paired.get(record["group"], {})
+        record |= {f"paired_{k}": v for k, v in test.items()}
     if args.json:
         print(json_text({"results": str(out), "against": str(other), "a": a, "b": b,
                           "recovery_a": rec_a, "recovery_b": rec_b,
                           "complete": complete_a and complete_b, "groups": records}))  # fmt: skip
-    else:
-        la, lb = labels[key_a], labels[key_b]
-        source = f"{out / 'results.csv'}" + (
-            f" and {other / 'results.csv'}" if args.against else ""
-        )
-        print(
-            f"P({la} > {lb}) on success per task (world, noise); 95 % stratified bootstrap "
-            f"over runs; 0.5 = no difference. From {source}.\n"
-        )
-        print(improvement_table(records, key_a, key_b, labels), end="")
-    return 0
+        return
+    la, lb = labels[key_a], labels[key_b]
+    print(
+        f"P({la} > {lb}) on success per task (world, noise); 95 % stratified bootstrap "
+        f"over runs; 0.5 = no difference. Paired by (layout, noise, evaluation seed), each "
+        f"side's success averaged over its training seeds: A better / worse in how many "
+        f"pairs, and the one-sided Wilcoxon signed-rank p-value of A > B. From {source}.\n"
+    )
+    print(improvement_table(records, key_a, key_b, labels), end="")

@@ -31,7 +31,7 @@ from d3dwa_bullet.limits import (
     MAX_TIME_LIMIT_S,
     check_processes,
 )
-from d3dwa_bullet.method_specs import BEYOND_PAPER, FIXED, LEARNED, REFERENCE
+from d3dwa_bullet.method_specs import FIXED, HELD_REFERENCE, LEARNED, REFERENCE
 from d3dwa_bullet.params import RECOVERY_KINDS, PlannerParams, SimParams, recovery_params
 from d3dwa_bullet.planning.scan_filter import SCAN_FILTERS
 from d3dwa_bullet.world.model import World, goal_in_obstacle, start_in_collision
@@ -300,11 +300,8 @@ def workers_arg(args: argparse.Namespace) -> int:
 
 
 def default_methods() -> list[str]:
-    """The paper's track: fixed baselines, the reference methods (``random``: the floor a
-    learned method must clear), then every learned method of the paper whose shipped policy
-    exists (methods beyond the paper run when named with --methods)."""
-    return (
-        list(FIXED)
-        + list(REFERENCE)
-        + [m for m in LEARNED if m not in BEYOND_PAPER and default_policy_path(m).exists()]
-    )
+    """The paper's track: fixed baselines, the reference methods drawn every control step
+    (SPEC 6's floor) and held for the shipped policies' decision period (the floor a learned
+    method must clear), then every learned method whose shipped policy exists."""
+    learned = [m for m in LEARNED if default_policy_path(m).exists()]
+    return list(FIXED) + list(REFERENCE) + list(HELD_REFERENCE) + learned

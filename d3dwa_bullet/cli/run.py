@@ -61,7 +61,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from d3dwa_bullet.controllers import make_controller
     from d3dwa_bullet.episode import run_episode
     from d3dwa_bullet.evaluation.jobs import make_noise
-    from d3dwa_bullet.method_specs import LABELS
+    from d3dwa_bullet.method_specs import method_label
 
     controller = make_controller(args.method, args.policy, onnx=args.onnx)
     result = run_episode(
@@ -88,7 +88,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         t = list(log["t"]) + [result.time_s]
         tau = list(log["tau"]) + list(log["tau"][-1:])
         run = {
-            "label": LABELS.get(args.method, args.method), "method": args.method,
+            "label": method_label(args.method), "method": args.method,
             "outcome": result.outcome, "t": t, "x": log["true_x"], "y": log["true_y"], "tau": tau,
             "recovery": log["recovery"],
         }  # fmt: skip

@@ -47,7 +47,7 @@ from d3dwa_bullet.evaluation.results import (
 )
 from d3dwa_bullet.io import file_stem
 from d3dwa_bullet.loading import parse_json
-from d3dwa_bullet.method_specs import LABELS
+from d3dwa_bullet.method_specs import method_label
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.noise_config import NoiseConfig
 from d3dwa_bullet.world.model import World
@@ -295,7 +295,7 @@ def world_figures(
             log = load_log(log_path)
             runs.append(
                 {
-                    "label": LABELS.get(method, method)
+                    "label": method_label(method)
                     + ("" if job.policy_seed is None else f" (seed-{job.policy_seed})"),
                     "method": method,
                     "outcome": str(log["outcome"]),

@@ -17,7 +17,7 @@ from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Circle, Patch, Polygon  # noqa: E402
 
 from d3dwa_bullet.io import atomic_savefig  # noqa: E402
-from d3dwa_bullet.method_specs import LABELS, METHODS, REFERENCE  # noqa: E402
+from d3dwa_bullet.method_specs import METHODS, method_label, reference_of  # noqa: E402
 from d3dwa_bullet.params import RECOVERY_BEHAVIOURS  # noqa: E402
 from d3dwa_bullet.world.model import Cylinder, World, obstacle_outline  # noqa: E402
 
@@ -158,8 +158,19 @@ def trajectory_figure(
 
 
 REFERENCE_COLOURS = {"random": (0.45, 0.45, 0.45, 1.0), "random-weights": (0.72, 0.72, 0.72, 1.0)}
-"""The colours of the reference methods: greys, floors rather than contenders."""
-_COLOURED = tuple(m for m in METHODS if m not in REFERENCE)
+"""The colours of the reference methods: greys, floors rather than contenders (a held one a
+darker grey than its every-step draw)."""
+HELD_DARKER = 0.2
+_COLOURED = tuple(m for m in METHODS if reference_of(m) is None)
+
+
+def _reference_colour(method: str) -> tuple | None:
+    ref = reference_of(method)
+    if ref is None:
+        return None
+    r, g, b, a = REFERENCE_COLOURS[ref[0]]
+    dark = HELD_DARKER if ref[1] > 1 else 0.0
+    return (r - dark, g - dark, b - dark, a)
 
 
 def method_colours(methods: Sequence[str]) -> dict[str, tuple]:
@@ -168,9 +179,7 @@ def method_colours(methods: Sequence[str]) -> dict[str, tuple]:
     changes no other method's colour)."""
     cmap = plt.get_cmap("tab10")
     return {
-        m: REFERENCE_COLOURS[m]
-        if m in REFERENCE
-        else cmap(_COLOURED.index(m) % 10 if m in _COLOURED else i % 10)
+        m: _reference_colour(m) or cmap(_COLOURED.index(m) % 10 if m in _COLOURED else i % 10)
         for i, m in enumerate(methods)
     }
 
@@ -236,7 +245,7 @@ def sweep_figure(
                 ]
             )
             terr = np.nan_to_num(terr, nan=0.0)
-            kw = {"color": colours[m], "label": LABELS.get(m, m)}
+            kw = {"color": colours[m], "label": method_label(m)}
             top, bottom = axes[0, col], axes[1, col]
             ok = np.isfinite(tm)
             if bars:

@@ -22,6 +22,7 @@ from typing import Any
 
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation.floors import FLOORS_NOTE, floor_records, floor_table
 from d3dwa_bullet.evaluation.jobs import figure_name, world_figures
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.results import (
@@ -41,7 +42,7 @@ from d3dwa_bullet.evaluation.sweep import (
 )
 from d3dwa_bullet.evaluation.tables import paper_table, run_notes
 from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text
-from d3dwa_bullet.method_specs import LABELS
+from d3dwa_bullet.method_specs import method_label
 from d3dwa_bullet.resources import policies_dir as shipped_policies_dir
 from d3dwa_bullet.world.registry import load_world
 
@@ -97,11 +98,18 @@ def eval_markdown(
         "mean time to goal; *all* averages the worlds. Each training seed's row: "
         "table_seeds.md.\n\n"
         + seed_tables(rows, methods, worlds)
+        + floors_section(rows, methods)
         + "\n## Paper layout, pooled over every run\n\n"
         "Time [s], TL [m], PD [rad] averaged over every successful episode; T = timeout, "
         "C = collision; (k/n) where only k of n episodes succeeded; best per world and metric "
         "in bold.\n\n" + paper_table(rows, methods, worlds)
     )
+
+
+def floors_section(rows: Sequence[dict[str, Any]], methods: Sequence[str]) -> str:
+    """ "Against chance": which floor each learned method cleared (empty without one)."""
+    table = floor_table(floor_records(rows, methods))
+    return f"\n## Against chance\n\n{FLOORS_NOTE}\n\n{table}" if table else ""
 
 
 def seeds_markdown(
@@ -273,7 +281,7 @@ def _sweep_body(out: Path, meta: dict[str, Any], partial: bool) -> str:
     note = " (PARTIAL)" if partial else ""
     lines = [
         "## Settings\n\n",
-        f"Methods: {', '.join(LABELS.get(m, m) for m in settings.methods)}. "
+        f"Methods: {', '.join(method_label(m) for m in settings.methods)}. "
         f"Shipped worlds: {', '.join(settings.worlds)}; unseen generated layouts: "
         f"{settings.layouts} per style ({', '.join(settings.styles)}). Seeds per condition: "
         f"{settings.seeds} (from {settings.first_seed}). Levels per axis: {settings.levels} "
@@ -343,7 +351,7 @@ def write_report(
         page.append("\n## Learning curves\n\n")
         for name, link, src in curves:
             method, _, seed = name.partition("/")
-            label = LABELS.get(method, method) + (f", {seed}" if seed else "")
+            label = method_label(method) + (f", {seed}" if seed else "")
             where = src.relative_to(policies.parent).as_posix()
             page.append(f"### {label} (`{where}`)\n\n![{name} learning curve]({link})\n\n")
     path = out / "report.md"

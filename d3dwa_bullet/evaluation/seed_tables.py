@@ -32,7 +32,7 @@ from d3dwa_bullet.evaluation.seed_stats import (
     mean_interval,
     probability_of_improvement,
 )
-from d3dwa_bullet.method_specs import LABELS, method_family, needs_policy
+from d3dwa_bullet.method_specs import method_family, method_label, needs_policy
 
 Row = Mapping[str, Any]
 Run = tuple[str, int]
@@ -140,7 +140,7 @@ def seed_tables(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence[st
             t_all.append(t)
             s_cells.append(_rate(mean_interval([s])))
             t_cells.append(_time(_time_interval([t])))
-        label = f"| {LABELS.get(m, m)} | {_runs_label(m, mine)} | "
+        label = f"| {method_label(m)} | {_runs_label(m, mine)} | "
         success.append(label + " | ".join(s_cells) + f" | {_rate(mean_interval(s_all))} |")
         timing.append(label + " | ".join(t_cells) + f" | {_time(_time_interval(t_all))} |")
     return (
@@ -178,7 +178,7 @@ def per_seed_table(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence
                     parts.append(f"0/{len(rs)} ({n_c} C, {len(rs) - n_c} T)")
             rate = f"{100 * n_ok / n_all:.0f} %" if n_all else ""
             seed = "--" if k is None else str(k)
-            lines.append(f"| {LABELS.get(m, m)} | {seed} | " + " | ".join(parts) + f" | {rate} |")
+            lines.append(f"| {method_label(m)} | {seed} | " + " | ".join(parts) + f" | {rate} |")
     return "\n".join(lines) + "\n"
 
 
@@ -229,17 +229,26 @@ def improvement_table(
 ) -> str:
     """The records of :func:`improvement` as Markdown; labels: a's and b's column labels
     where they are not the methods' (e.g. one method with and without recovery)."""
-    names = {**LABELS, **(labels or {})}
-    la, lb = names.get(a, a), names.get(b, b)
+    names = labels or {}
+    la, lb = names.get(a, method_label(a)), names.get(b, method_label(b))
+    paired = any("paired_p" in r for r in records)
+    extra = " pairs | A better / worse | paired p (A > B) |" if paired else ""
     lines = [
-        f"| tasks | n | runs {la} | runs {lb} | P({la} > {lb}) | 95 % interval |",
-        "|---|---:|---:|---:|---:|---|",
+        f"| tasks | n | runs {la} | runs {lb} | P({la} > {lb}) | 95 % interval |{extra}",
+        "|---|---:|---:|---:|---:|---|" + ("---:|---:|---:|" if paired else ""),
     ]
     for r in records:
-        lines.append(
+        line = (
             f"| {r['group']} | {r['tasks']} | {r['runs_a']} | {r['runs_b']} | {r['p']:.2f} | "
             f"[{r['low']:.2f}, {r['high']:.2f}] |"
         )
+        if paired:
+            p = r.get("paired_p")
+            line += (
+                f" {r.get('paired_units', 0)} | {r.get('paired_wins', 0)} / "
+                f"{r.get('paired_losses', 0)} | {'--' if p is None else f'{p:.3g}'} |"
+            )
+        lines.append(line)
     return "\n".join(lines) + "\n"
 
 
@@ -277,5 +286,5 @@ def condition_table(
                     else ""
                 )
             if any(parts):
-                lines.append(f"| {LABELS.get(m, m)} | {g} | " + " | ".join(parts) + " |")
+                lines.append(f"| {method_label(m)} | {g} | " + " | ".join(parts) + " |")
     return "\n".join(lines) + "\n"

@@ -44,6 +44,7 @@ from typing import Any
 from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig
+from d3dwa_bullet.evaluation.floors import FLOORS_NOTE, floor_records, floor_table
 from d3dwa_bullet.evaluation.jobs import Job, evaluate, noise_config_json
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.plotting import sweep_figure
@@ -243,6 +244,11 @@ def sweep_markdown(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -
             condition_table(rows, settings.methods, settings.profiles, profile_of,
                             [g for g in LAYOUT_GROUPS if g in titles], lambda r: r["layout"])
         )  # fmt: skip
+    floors = floor_table(floor_records(rows, settings.methods))
+    if floors:
+        parts.append(
+            f"\n### Against chance (every layout and condition)\n\n{FLOORS_NOTE}\n\n{floors}"
+        )
     return "".join(parts)
 
 

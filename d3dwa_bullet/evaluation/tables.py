@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from d3dwa_bullet.evaluation.stats import CellStats, Series
-from d3dwa_bullet.method_specs import LABELS
+from d3dwa_bullet.method_specs import method_label
 
 METRICS = (("time_s", "Time"), ("tl_m", "TL"), ("pd_rad", "PD"))
 
@@ -74,7 +74,7 @@ def paper_table(
                 if key == "time_s" and len(ok) < len(rs):
                     text += f" ({len(ok)}/{len(rs)})"
                 cells.append(text)
-        lines.append(f"| {LABELS.get(m, m)} | " + " | ".join(cells) + " |")
+        lines.append(f"| {method_label(m)} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -98,7 +98,7 @@ def series_table(series: Series, header: Sequence[Any]) -> str:
         for m, points in per_method.items():
             by_x = dict(points)
             cells = [_cell(by_x[x]) if x in by_x else "" for x in header]
-            lines.append(f"| {LABELS.get(m, m)} | {layout} | " + " | ".join(cells) + " |")
+            lines.append(f"| {method_label(m)} | {layout} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 

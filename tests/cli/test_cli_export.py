@@ -14,7 +14,7 @@ from d3dwa_bullet.controllers import default_policy_path
 from d3dwa_bullet.learning.agents import D3QNAgent, D3QNConfig, save_checkpoint
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
 from d3dwa_bullet.learning.agents.onnx_export import Q_TOLERANCE
-from d3dwa_bullet.method_specs import ONNX_METHODS, UNSHIPPED
+from d3dwa_bullet.method_specs import ONNX_METHODS
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
 from d3dwa_bullet.planning.progress import observation_layout
 from d3dwa_bullet.seed_dirs import seed_dirs
@@ -34,7 +34,7 @@ def test_export_writes_every_shipped_seed_and_reports_its_check(capsys, tmp_path
     code, out, err = run(capsys, "export", "--onnx", tmp_path)
     assert code == 0, err
     expected = sorted(f"{m}/seed-{k}.onnx" for m, seeds in SHIPPED.items() for k in seeds)
-    shipping = [m for m in ONNX_METHODS if m not in UNSHIPPED]  # five seeds each, or more
+    shipping = list(ONNX_METHODS)  # five seeds each, or more
     assert len(expected) >= 5 * len(shipping) > 0 and files_under(tmp_path) == expected
     lines = out.strip().splitlines()
     assert len(lines) == len(expected)
@@ -59,18 +59,10 @@ def test_export_one_method_some_seeds_as_json(capsys, tmp_path: Path) -> None:
     )
 
 
-def test_export_a_trained_progress_checkpoint(capsys, tmp_path: Path, monkeypatch) -> None:
+def test_a_progress_checkpoint_is_refused_for_a_paper_method(capsys, tmp_path: Path) -> None:
     agent = D3QNAgent(ACTIONS_FULL, D3QNConfig(hidden=(16,)), observation_layout("progress"))
-    ckpt = save_checkpoint(tmp_path / "runs" / "best", agent, method="d3dwa-pa")
+    ckpt = save_checkpoint(tmp_path / "runs" / "best", agent, method="d3dwa")
     out_dir = tmp_path / "onnx"
-    code, out, _ = run(
-        capsys, "export", "--onnx", out_dir, "--method", "d3dwa-pa", "--policy", ckpt
-    )
-    assert code == 0 and "progress observation" in out
-    assert files_under(out_dir) == ["d3dwa-pa/best.onnx"]
-    monkeypatch.chdir(ckpt)  # "." is named after the directory it is
-    code, _, _ = run(capsys, "export", "--onnx", out_dir, "--method", "d3dwa-pa", "--policy", ".")
-    assert code == 0 and files_under(out_dir) == ["d3dwa-pa/best.onnx"]
     # a progress policy exported for a paper method does not fit it
     line = refused(capsys, "export", "--onnx", out_dir, "--method", "d3dwa", "--policy", ckpt)
     assert "'progress' observation" in line and "method 'd3dwa'" in line
@@ -173,7 +165,6 @@ def test_run_onnx_drives_the_same_episode_as_its_checkpoint(capsys, d3dwa_onnx: 
         (["--method", "d3dwa", "--policy", "{policy}"], "both name the policy: give one"),
         (["--method", "dwa1"], "method 'dwa1' does not run a network"),
         (["--method", "d3dwa-weights"], "method 'd3dwa-weights' decodes"),
-        (["--method", "d3dwa-pa"], "method 'd3dwa-pa' feeds the 'progress' observation"),
     ],
 )
 def test_run_onnx_refusals(capsys, d3dwa_onnx: Path, argv, says) -> None:

@@ -107,15 +107,12 @@ def test_eval_tables_figures_and_failure_modes_take_random(evaluated):
     assert records["random"]["episodes"] == 3
 
 
-def test_compare_takes_random_as_a_method_without_training_seeds(evaluated, capsys):
+def test_compare_on_one_layout_is_refused_in_one_line(evaluated, capsys):
     capsys.readouterr()
-    assert run_main("compare", evaluated, "--methods", "random,dwa1", "--json") == 0
-    report = json.loads(capsys.readouterr().out)
-    overall = report["groups"][-1]
-    assert overall["runs_a"] == 3 and overall["runs_b"] == 3  # evaluation seeds, as fixed
-    assert 0.0 <= overall["p"] <= 1.0
-    assert run_main("compare", evaluated, "--methods", "random,dwa1") == 0
-    assert "P(Random (uniform over 100 actions) > DWA I" in capsys.readouterr().out
+    assert run_main("compare", evaluated, "--methods", "random,dwa1", "--json") == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"d3dwa: error: {evaluated / 'results.csv'}: methods 'random' and 'dwa1' "
+                   "share only one layout (tiny); a test paired by layout needs 2 or more")  # fmt: skip
 
 
 def test_sweep_takes_random(one_second_world, tmp_path, capsys):

@@ -69,8 +69,10 @@ def test_compare_prints_the_probability_of_improvement(setup, tmp_path, capsys, 
     # the seed folder stands in for the shipped policies/d3dwa/
     monkeypatch.setattr(policy_runs, "default_policy_path", lambda m: folder.parent / m)
     out = tmp_path / "both"
-    assert main(["eval", "--worlds", str(world), "--methods", "dwa3,d3dwa", "--seeds", "2",
-                 "--workers", "1", "--out", str(out)]) == 0  # fmt: skip
+    twin = tmp_path / "twin.yaml"  # a second layout: compare's test is paired by layout
+    twin.write_text(yaml.safe_dump(dict(NEAR_GOAL, name="twin")))
+    assert main(["eval", "--worlds", f"{world},{twin}", "--methods", "dwa3,d3dwa", "--seeds",
+                 "2", "--workers", "1", "--out", str(out)]) == 0  # fmt: skip
     with (out / "results.csv").open() as fh:
         outcomes = {r["outcome"] for r in csv.DictReader(fh)}
     assert outcomes == {"goal"}  # 0.3 m to go: every run of both reaches it
@@ -83,7 +85,9 @@ def test_compare_prints_the_probability_of_improvement(setup, tmp_path, capsys, 
     assert report["groups"][-1]["runs_a"] == 2 and report["groups"][-1]["runs_b"] == 2
     assert main(["compare", str(out), "--methods", "d3dwa,dwa3"]) == 0
     text = capsys.readouterr().out
-    assert "| all | 1 | 2 | 2 | 0.50 | [0.50, 0.50] |" in text and "P(D3DWA > DWA III" in text
+    # 4 pairs (2 layouts x 2 evaluation seeds), all tied: no evidence that A is higher, p = 1
+    assert "| all | 2 | 2 | 2 | 0.50 | [0.50, 0.50] | 4 | 0 / 0 | 1 |" in text
+    assert "P(D3DWA > DWA III" in text and report["groups"][-1]["paired_p"] == 1.0
 
 
 def test_compare_names_a_method_that_is_not_in_the_results(evaluated, capsys):
@@ -94,7 +98,9 @@ def test_compare_names_a_method_that_is_not_in_the_results(evaluated, capsys):
 
 
 def test_compare_refuses_bad_methods(evaluated, capsys):
-    assert main(["compare", str(evaluated), "--methods", "d3dwa"]) == 2
+    assert main(["compare", str(evaluated), "--methods", "d3dwa"]) == 2  # A alone: its floors
+    assert "no floor of method 'd3dwa' (random, random@10)" in capsys.readouterr().err
+    assert main(["compare", str(evaluated), "--methods", "dwa1"]) == 2
     assert "--methods needs two different methods A,B" in capsys.readouterr().err
     assert main(["compare", str(evaluated), "--methods", "d3dwa,nope"]) == 2
     assert "unknown method 'nope'" in capsys.readouterr().err

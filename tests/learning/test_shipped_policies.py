@@ -11,11 +11,10 @@ import numpy as np
 import pytest
 
 from d3dwa_bullet.controllers import default_policy_path, make_controller
-from d3dwa_bullet.errors import CheckpointError
 from d3dwa_bullet.evaluation.policy_runs import check_one_experiment
 from d3dwa_bullet.learning.agents.policy import load_policy
 from d3dwa_bullet.learning.training import load_train_config
-from d3dwa_bullet.method_specs import LEARNED, UNSHIPPED, method_observation
+from d3dwa_bullet.method_specs import LEARNED, method_observation
 from d3dwa_bullet.planning.controller import Controller
 from d3dwa_bullet.resources import configs_dir
 from d3dwa_bullet.seed_dirs import seed_dirs
@@ -35,24 +34,10 @@ OBSERVATIONS = np.array(
 )
 """Fixed observations [d_g, theta_g, v, w, l_1..l_8]."""
 
-PROGRESS_ENTRIES = np.array(
-    [
-        [0.0, 0.0, 0.0, 0.0, 0.0],  # the first step: no previous action yet
-        [0.05, 1 / 3, 2 / 3, 1 / 3, 0.8],
-        [0.6, 1 / 3, 1 / 3, 1 / 3, 0.4],
-        [1.0, 1.0, 1 / 3, 2 / 3, 1.0],  # stalled a whole window
-        [0.3, 2 / 3, 1 / 3, 1.0, 0.6],
-        [0.9, 1 / 3, 1.0, 1 / 3, 0.8],
-    ]
-)
-"""[stalled, prev_wp, prev_wc, prev_ws, prev_tau] appended to OBSERVATIONS for the methods
-that read the progress observation (docs/design.md#progress-observation)."""
-
 
 def observations_for(method: str) -> np.ndarray:
-    """OBSERVATIONS in the observation kind the method's policy reads, (6, 12) or (6, 17)."""
-    if method_observation(method) == "progress":
-        return np.hstack([OBSERVATIONS, PROGRESS_ENTRIES])
+    """OBSERVATIONS in the observation kind the method's policy reads (the paper's, (6, 12))."""
+    assert method_observation(method) == "paper"
     return OBSERVATIONS
 
 
@@ -111,7 +96,7 @@ def decide(controller: Controller, obs: np.ndarray) -> int:
     return controller(obs)[0]
 
 
-@pytest.mark.parametrize("method", [m for m in LEARNED if m not in UNSHIPPED])
+@pytest.mark.parametrize("method", list(LEARNED))
 def test_every_learned_method_ships_its_seeds_of_one_experiment(method: str) -> None:
     folder = default_policy_path(method)
     seeds = seed_dirs(folder)
@@ -120,16 +105,6 @@ def test_every_learned_method_ships_its_seeds_of_one_experiment(method: str) -> 
     check_one_experiment(folder, seeds)  # one config (but the seed) and one action set
     budgets = {load_train_config(p / "config.json").total_steps for p in seeds.values()}
     assert len(budgets) == (1 if seeds else 0)
-
-
-@pytest.mark.parametrize("method", sorted(UNSHIPPED))
-def test_a_method_that_ships_nothing_says_why_in_one_line(method: str) -> None:
-    assert not default_policy_path(method).exists()  # no seed of another learner left behind
-    with pytest.raises(CheckpointError) as error:
-        make_controller(method)
-    message = str(error.value)
-    assert "\n" not in message and UNSHIPPED[method] in message
-    assert f"d3dwa train --method {method} --seeds 0-4" in message
 
 
 @pytest.mark.parametrize(("method", "seed"), SEEDS)

@@ -15,7 +15,10 @@ import pytest
 pytest.importorskip("kachaka_api", reason="the robot extra is not installed")
 
 from d3dwa_bullet.episode import EpisodeConfig  # noqa: E402
+from d3dwa_bullet.learning.agents import D3QNAgent, D3QNConfig, save_checkpoint  # noqa: E402
 from d3dwa_bullet.learning.agents.onnx_export import export_onnx  # noqa: E402
+from d3dwa_bullet.planning.actions import ACTIONS_FULL  # noqa: E402
+from d3dwa_bullet.planning.progress import observation_layout  # noqa: E402
 from d3dwa_bullet.resources import policies_dir  # noqa: E402
 from d3dwa_bullet.sim.lidar import LidarParams  # noqa: E402
 from d3dwa_bullet.world.registry import load_world  # noqa: E402
@@ -89,11 +92,12 @@ def test_a_finer_scan_is_mapped_into_the_same_sectors(capsys, serve):
     assert json.loads(out)["steps"] == 20 and len(sim.received) == 21  # 20 steps and the stop
 
 
-def test_a_policy_of_another_observation_is_refused_before_connecting(capsys):
-    policy = policies_dir() / "d3dwa" / "seed-0"
+def test_a_policy_of_another_observation_is_refused_before_connecting(capsys, tmp_path):
+    agent = D3QNAgent(ACTIONS_FULL, D3QNConfig(hidden=(16,)), observation_layout("progress"))
+    policy = save_checkpoint(tmp_path / "progress", agent, method="d3dwa")
     line = refused(
         capsys, "drive", "--kachaka", f"127.0.0.1:{free_port()}", "--goal", "3,0",
-        "--method", "d3dwa-pa", "--policy", str(policy),
+        "--method", "d3dwa", "--policy", str(policy),
     )  # fmt: skip
     assert "progress" in line and "paper" in line
 

@@ -30,7 +30,7 @@ def test_a_keep_final_seed_marks_its_final_checkpoint(tmp_path):
     run = run_dir(tmp_path)
     summary = {"best_eval": {"step": 20}, "final_eval": {"step": 40}}
     (run / "seed-0" / "summary.json").write_text(json.dumps(summary))
-    (run / "seed-0" / "config.json").write_text(json.dumps({"method": "d3dwa-pa", "keep": "final"}))
+    (run / "seed-0" / "config.json").write_text(json.dumps({"method": "d3dwa-dr", "keep": "final"}))
     assert seed_curves(run)[0][2] == 40  # not the best validation's step 20
 
 

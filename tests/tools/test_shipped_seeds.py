@@ -22,7 +22,7 @@ def test_one_row_per_method_with_every_seed(tmp_path):
 
 
 def test_a_keep_final_seed_reports_its_final_checkpoint(tmp_path):
-    folder = tmp_path / "d3dwa-pa" / "seed-0"
+    folder = tmp_path / "d3dwa-dr" / "seed-0"
     folder.mkdir(parents=True)
     summary = {"env_steps": 250_000, "wall_time_s": 1200.0,
                "best_eval": {"step": 100_934, "success_rate": 0.89},
@@ -30,7 +30,7 @@ def test_a_keep_final_seed_reports_its_final_checkpoint(tmp_path):
     (folder / "summary.json").write_text(json.dumps(summary))
     (folder / "config.json").write_text(json.dumps({"keep": "final"}))
     row = markdown(seed_records(tmp_path)).splitlines()[2]
-    assert row == "| `d3dwa-pa` | 0 | 250k | 250k | 0.67 | -- | 20.0-20.0 min |"
+    assert row == "| `d3dwa-dr` | 0 | 250k | 250k | 0.67 | -- | 20.0-20.0 min |"
 
 
 def test_value_ratios_and_decision_periods_come_from_each_seed(tmp_path):

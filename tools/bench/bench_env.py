@@ -20,7 +20,7 @@ episode ends) for as many steps, alternating with the bare runs, and reports its
 second and per CPU-second beside them: is the env the training loop drives dearer than the
 bare simulator, or is the gap in the loop around it?
 
-    python -m tools.bench.bench_env --train-env configs/d3dwa-pa-dr.yaml --json
+    python -m tools.bench.bench_env --train-env configs/d3dwa-dr.yaml --json
 """
 
 from __future__ import annotations

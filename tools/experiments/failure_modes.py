@@ -27,7 +27,7 @@ from d3dwa_bullet.evaluation.jobs import log_name
 from d3dwa_bullet.evaluation.results import job_rows, load_log, recovery_of, row_key
 from d3dwa_bullet.evaluation.sweep_settings import PROFILES
 from d3dwa_bullet.io import atomic_savefig
-from d3dwa_bullet.method_specs import LABELS
+from d3dwa_bullet.method_specs import method_label
 
 
 def failure_records(out: Path) -> list[dict[str, Any]]:
@@ -92,7 +92,7 @@ def markdown(records: Sequence[dict[str, Any]], noises: Sequence[str]) -> str:
             cells += [f"{r['symptoms_in_goals'][s]}/{goals}" if goals else "" for s in SYMPTOMS]
             cells += [str(r["recoveries"]), str(r["recoveries_with_progress"])]
             cells += [str(r["circling"] or "")]
-            label = LABELS.get(r["method"], r["method"])
+            label = method_label(r["method"])
             lines.append(f"| {noise} | {label} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -124,7 +124,7 @@ def figure(
             bottoms = [b + s for b, s in zip(bottoms, share, strict=True)]
         ax.set_title(f"noise: {noise}")
         ax.set_xticks(range(len(methods)))
-        ax.set_xticklabels([LABELS.get(m, m) for m in methods], rotation=60, ha="right",
+        ax.set_xticklabels([method_label(m) for m in methods], rotation=60, ha="right",
                            fontsize=7)  # fmt: skip
     axes[0].set_ylabel("failed episodes [%],\nby primary mode" + note)
     fig.legend(loc="upper center", ncol=len(MODES), fontsize=8, frameon=False)

@@ -1,4 +1,8 @@
-"""The `random` reference at a decision period: does a policy beat chance at its own rate?
+"""The `random` reference at a decision period, on the 33 layouts: a thin caller of the registry.
+
+The held reference is a method of the registry (``random@k``, ``random-weights@k``:
+docs/design.md#floors), in the default tables of ``d3dwa eval`` and ``d3dwa sweep``; this tool
+only runs it on R1-R3 and the 30 unseen generated layouts and counts goals per seed.
 
     python -m tools.experiments.random_hold --hold 10 --seeds 0,1,2
     python -m tools.experiments.random_hold --hold 10 --seeds 0,1,2 --recovery nav2
@@ -26,7 +30,7 @@ from d3dwa_bullet.episode import run_episode
 from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, D3DWAError
 from d3dwa_bullet.evaluation.jobs import make_noise
-from d3dwa_bullet.method_specs import REFERENCE
+from d3dwa_bullet.method_specs import HOLD_MARK, REFERENCE, check_method
 from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
 from d3dwa_bullet.world.registry import load_world
@@ -42,7 +46,7 @@ def layouts() -> list:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m tools.experiments.random_hold")
-    ap.add_argument("--hold", type=int, default=1, help="control steps each draw is kept")
+    ap.add_argument("--hold", default="1", help="control steps each draw is kept")
     ap.add_argument("--seeds", default="0", help="episode seeds, e.g. 0,1,2")
     ap.add_argument(
         "--recovery",
@@ -60,8 +64,8 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError:
         print(f"random_hold: error: --seeds {args.seeds!r}: expected e.g. 0,1,2", file=sys.stderr)
         return 2
-    if not 1 <= args.hold <= 100 or min(seeds) < 0:
-        print("random_hold: error: --hold must be in [1, 100] and seeds >= 0", file=sys.stderr)
+    if min(seeds) < 0:
+        print("random_hold: error: --seeds must be >= 0", file=sys.stderr)
         return 2
     try:
         config = replace(EpisodeConfig(), recovery=recovery_params(args.recovery))
@@ -75,6 +79,13 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
+    method = f"{args.reference}{HOLD_MARK}{args.hold}"
+    try:
+        check_method(method)  # the registry judges the decision period (0, -1, 1.5, 101, ...)
+    except D3DWAError as err:
+        print(f"random_hold: error: --hold {args.hold}: {err}", file=sys.stderr)
+        return 2
+    hold = int(args.hold)
     try:
         make_noise(args.noise, 0)
     except D3DWAError as err:
@@ -85,7 +96,7 @@ def main(argv: list[str] | None = None) -> int:
     for seed in seeds:
         n = 0
         for world in worlds:
-            controller = replace(make_controller(args.reference), hold=args.hold)
+            controller = make_controller(method)
             noise = make_noise(args.noise, seed)
             episode = run_episode(
                 world, controller, seed, noise=noise, noise_name=args.noise, config=config
@@ -94,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
         goals[seed] = n
         if not args.json:
             print(
-                f"{args.reference}, hold {args.hold}, noise {args.noise}, recovery "
+                f"{args.reference}, hold {hold}, noise {args.noise}, recovery "
                 f"{args.recovery}, episode seed {seed}: "
                 f"{n}/{len(worlds)} goals",
                 flush=True,
@@ -106,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
             json.dumps(
                 {
                     "reference": args.reference,
-                    "hold": args.hold,
+                    "hold": hold,
                     "noise": args.noise,
                     "recovery": args.recovery,
                     "layouts": len(worlds),
@@ -116,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
             )
         )
     else:
-        print(f"hold {args.hold}: {total}/{len(worlds) * len(seeds)} goals ({rate:.2f})")
+        print(f"hold {hold}: {total}/{len(worlds) * len(seeds)} goals ({rate:.2f})")
     return 0
 
 

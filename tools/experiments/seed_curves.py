@@ -23,7 +23,7 @@ from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.io import atomic_savefig
 from d3dwa_bullet.learning.training.logs import read_metrics
 from d3dwa_bullet.loading import load_json
-from d3dwa_bullet.method_specs import LABELS
+from d3dwa_bullet.method_specs import method_label
 from d3dwa_bullet.seed_dirs import kept_evaluation, seed_dirs
 
 
@@ -65,7 +65,7 @@ def figure(runs: Sequence[Path], out: Path) -> Path:
             steps = next(iter(curves.values()))[0]
             mean = np.mean([v for _, v, _ in curves.values()], axis=0)
             ax.plot(steps / 1000, mean, lw=2.2, color="k", label="mean")
-        ax.set_title(f"{LABELS.get(method, method)} ({len(curves)} seeds)", fontsize=9)
+        ax.set_title(f"{method_label(method)} ({len(curves)} seeds)", fontsize=9)
         ax.set_xlabel("env steps [k]")
         ax.set_ylim(-0.03, 1.03)
         ax.grid(alpha=0.3)

@@ -1,0 +1,84 @@
+"""The test paired by layout that `d3dwa compare` prints beside P(A > B): its p-value is
+scipy.stats.wilcoxon's on the per-(layout, seed) success differences, each side averaged over
+its training seeds; fewer than two shared layouts are refused in one line, never a NaN."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy import stats
+
+import d3dwa_bullet.cli.compare as compare
+from d3dwa_bullet.cli.app import main
+from d3dwa_bullet.evaluation.paired import paired_scores, paired_test
+
+LAYOUTS = [f"L{k}" for k in range(8)]
+A_GOALS = {  # (layout, evaluation seed) -> goals of A's three training seeds
+    (w, s): [(k + s + t) % 4 != 0 for t in range(3)] for k, w in enumerate(LAYOUTS) for s in (0, 1)
+}
+B_GOALS = {(w, s): (k + 2 * s) % 3 == 0 for k, w in enumerate(LAYOUTS) for s in (0, 1)}
+
+
+def row(method: str, world: str, seed: int, goal: bool, policy_seed: int | None) -> dict:
+    return {"method": method, "world": world, "noise": "none", "seed": seed,
+            "policy_seed": policy_seed, "outcome": "goal" if goal else "timeout",
+            "time_s": 5.0}  # fmt: skip
+
+
+def constructed() -> list[dict]:
+    rows = [row("d3dwa", w, s, g, t) for (w, s), gs in A_GOALS.items() for t, g in enumerate(gs)]
+    return rows + [row("dwa1", w, s, g, None) for (w, s), g in B_GOALS.items()]
+
+
+def expected_p() -> float:
+    d = [np.mean(A_GOALS[u]) - float(B_GOALS[u]) for u in sorted(A_GOALS)]
+    return float(stats.wilcoxon(d, alternative="greater", zero_method="wilcox").pvalue)
+
+
+def test_the_paired_p_value_is_scipys_wilcoxon_on_the_differences() -> None:
+    scores = paired_scores(constructed(), "d3dwa", "dwa1")
+    assert len(scores) == 16 and scores[("L1", "none", 0)] == (2 / 3, 0.0)
+    test = paired_test(scores)
+    assert test["p"] == pytest.approx(expected_p(), rel=1e-12) and 0.0 < test["p"] < 0.5
+    assert test["wins"] + test["losses"] + test["ties"] == 16 and test["wins"] > test["losses"]
+
+
+def test_compare_prints_scipys_p_value_beside_p_of_improvement(monkeypatch, capsys) -> None:
+    rows = constructed()
+    monkeypatch.setattr(
+        compare,
+        "_side",
+        lambda out, m, warn=True: ([r for r in rows if r["method"] == m], "none", True),
+    )
+    assert main(["compare", "made-up", "--methods", "d3dwa,dwa1", "--json"]) == 0
+    overall = json.loads(capsys.readouterr().out)["groups"][-1]
+    assert overall["group"] == "all" and overall["paired_units"] == 16
+    assert overall["paired_p"] == pytest.approx(expected_p(), rel=1e-12)
+    assert 0.5 < overall["p"] <= 1.0  # P(A > B), rliable-style, stays beside it
+    assert main(["compare", "made-up", "--methods", "d3dwa,dwa1"]) == 0
+    assert f"| {expected_p():.3g} |" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("layouts", "says"),
+    [(["L0"], "share only one layout (L0)"), ([], "share no layout: nothing to pair")],
+)
+def test_fewer_than_two_shared_layouts_is_one_line(layouts, says, monkeypatch, capsys) -> None:
+    rows = [r for r in constructed() if r["method"] == "d3dwa" or r["world"] in layouts]
+    rows = [r for r in rows if r["method"] == "dwa1" or r["world"] in (layouts or ["L1"])]
+    monkeypatch.setattr(
+        compare,
+        "_side",
+        lambda out, m, warn=True: ([r for r in rows if r["method"] == m], "none", True),
+    )
+    assert main(["compare", "made-up", "--methods", "d3dwa,dwa1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and says in err[0] and "nan" not in err[0].lower()
+
+
+def test_no_difference_is_p_1_and_one_pair_has_no_p() -> None:
+    tied = {("L0", "none", 0): (1.0, 1.0), ("L1", "none", 0): (0.0, 0.0)}
+    assert paired_test(tied)["p"] == 1.0
+    assert paired_test({("L0", "none", 0): (1.0, 0.0)})["p"] is None
