@@ -23,7 +23,7 @@ def test_without_recovery_the_log_marks_no_recovery_and_the_row_has_no_column(po
 
 
 def test_recovery_escapes_a_stall_that_times_out_without_it():
-    # DWA III stands still beside the goal side of H2's doorway (docs/results.md); the
+    # DWA III stands still beside the goal side of H2's doorway (docs/history.md#recovery); the
     # recovery layer's spin turns it free. Also: the same seed gives the same episode.
     world = load_world("H2")
     paper = run_episode(world, make_controller("dwa3"))

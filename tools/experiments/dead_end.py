@@ -8,7 +8,7 @@ every branch starts from the identical state), holds one action for ``--hold`` d
 lets the greedy policy go on for up to ``--then`` more. Per action it prints how far the robot
 got towards the goal and how the branch ended, beside the action's Q at the branch point.
 If no action moves the robot, no chooser of (weights, tau) can leave the state: its true value
-is the step penalty's, whatever the network says (docs/results.md#learner-pilot).
+is the step penalty's, whatever the network says (docs/history.md#learner).
 """
 
 from __future__ import annotations

@@ -9,7 +9,7 @@ evaluation every ``--eval-every``) into ``<out>/seed-<k>/`` (``--resume`` contin
 prints per seed the growth of the mean Q of the taken actions (``losses/q_values``) and every
 greedy evaluation's success and value calibration (mean Q of the visited (s, a) against the
 discounted return they earned). ``--summarise`` reads finished or running variants only.
-This is a developer instrument (docs/results.md#learner): the variants are evidence, not
+This is a developer instrument (docs/history.md#learner): the variants are evidence, not
 methods.
 """
 

@@ -5,7 +5,7 @@
 Worlds: TS1-TS4 plus 21 generated layouts (R1-style-s2..s8, R2-style-s3..s9,
 R3-style-s3..s9): training material (the trainings see those styles, never these
 layouts as such, nor US1, H1-H3 or the R1-R3 files), one noise-free episode each (seed 0).
-This is the validation docs/results.md reports for the shipped policies; it is a
+This is the validation the single-seed policies were chosen by (docs/history.md); it is a
 developer instrument, not a results table.
 """
 
