@@ -39,7 +39,7 @@ def expected_p() -> float:
 
 def test_the_paired_p_value_is_scipys_wilcoxon_on_the_differences() -> None:
     scores = paired_scores(constructed(), "d3dwa", "dwa1")
-    assert len(scores) == 16 and scores[("L1", "none", 0)] == (2 / 3, 0.0)
+    assert len(scores) == 16 and scores[("L0", "none", 0)] == (2 / 3, 1.0)
     test = paired_test(scores)
     assert test["p"] == pytest.approx(expected_p(), rel=1e-12) and 0.0 < test["p"] < 0.5
     assert test["wins"] + test["losses"] + test["ties"] == 16 and test["wins"] > test["losses"]
