@@ -4,7 +4,7 @@ decision period (docs/design.md#methods).
 
 A floor is cleared when the lower end of the 95 % interval of P(A > floor) over the tasks the
 two share is above 0.5 (:func:`seed_tables.improvement`, its "all" record). A floor that is not
-in the results is left out. Pure: results rows in, records and Markdown out.
+in the results, or shares no task with the method yet, is left out. Pure: results rows in, records and Markdown out.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.seed_tables import improvement
 from d3dwa_bullet.method_specs import floors_of, method_family, method_label
 
@@ -37,7 +38,10 @@ def floor_records(rows: Sequence[Mapping[str, Any]], methods: Sequence[str]) -> 
         for floor in floors_of(m):
             if floor not in present:
                 continue
-            rec = improvement(rows, m, floor, lambda r: [])[-1]
+            try:
+                rec = improvement(rows, m, floor, lambda r: [])[-1]
+            except ResultsError:  # an incomplete directory: no task run by both yet
+                continue
             out.append({"method": m, "floor": floor, "p": rec["p"], "low": rec["low"],
                         "high": rec["high"], "tasks": rec["tasks"],
                         "cleared": rec["low"] > CLEARED_ABOVE})  # fmt: skip

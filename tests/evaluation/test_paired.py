@@ -12,6 +12,7 @@ from scipy import stats
 
 import d3dwa_bullet.cli.compare as compare
 from d3dwa_bullet.cli.app import main
+from d3dwa_bullet.evaluation.floors import floor_records, floor_table
 from d3dwa_bullet.evaluation.paired import paired_scores, paired_test
 
 LAYOUTS = [f"L{k}" for k in range(8)]
@@ -39,7 +40,7 @@ def expected_p() -> float:
 
 def test_the_paired_p_value_is_scipys_wilcoxon_on_the_differences() -> None:
     scores = paired_scores(constructed(), "d3dwa", "dwa1")
-    assert len(scores) == 16 and scores[("L1", "none", 0)] == (2 / 3, 0.0)
+    assert len(scores) == 16 and scores[("L0", "none", 0)] == (2 / 3, 1.0)
     test = paired_test(scores)
     assert test["p"] == pytest.approx(expected_p(), rel=1e-12) and 0.0 < test["p"] < 0.5
     assert test["wins"] + test["losses"] + test["ties"] == 16 and test["wins"] > test["losses"]
@@ -82,3 +83,17 @@ def test_no_difference_is_p_1_and_one_pair_has_no_p() -> None:
     tied = {("L0", "none", 0): (1.0, 1.0), ("L1", "none", 0): (0.0, 0.0)}
     assert paired_test(tied)["p"] == 1.0
     assert paired_test({("L0", "none", 0): (1.0, 0.0)})["p"] is None
+
+
+def test_the_floor_table_says_which_floor_a_learned_method_cleared() -> None:
+    rows = [r | {"method": "random@10"} if r["method"] == "dwa1" else r for r in constructed()]
+    rows += [
+        r | {"method": "random", "outcome": "timeout"} for r in rows if r["method"] == "random@10"
+    ]
+    records = floor_records(rows, ["random", "random@10", "d3dwa"])
+    assert [(r["floor"], r["cleared"]) for r in records] == [("random", True), ("random@10", True)]
+    table = floor_table(records)
+    assert "| D3DWA | `random`: 1.00" in table and "| `random`, `random@10` |" in table
+    late = [r for r in rows if not (r["method"] == "d3dwa" and r["world"] != "L0")]
+    late = [r for r in late if r["method"] != "random@10" or r["world"] != "L0"]
+    assert [r["floor"] for r in floor_records(late, ["d3dwa"])] == ["random"]  # no shared task
