@@ -51,6 +51,7 @@ from d3dwa_bullet.errors import CheckpointError, ConfigError, WriteError
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
 from d3dwa_bullet.learning.agents.network import check_network_fits
+from d3dwa_bullet.learning.agents.policy_terms import folder_terms
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
 from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
@@ -278,6 +279,7 @@ def load_checkpoint(
     root = Path(directory)
     meta = read_meta(root)
     meta_path = root / META_FILE
+    folder_terms(root)  # the terms it is driven on: well-formed, and its config.json's
 
     obs = meta["observation"]
     layout = list(obs.get("layout", [])) if isinstance(obs, Mapping) else []
