@@ -33,6 +33,7 @@ from d3dwa_bullet.episode import Episode, EpisodeConfig
 from d3dwa_bullet.methods import make_controller
 from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.world.registry import load_world
+from tools.entry import ToolParser, tool_main
 
 DEFAULT_WORLDS = ["TS1", "TS3", "H1", "R3"]
 """The worlds of a bench run unless --worlds names others."""
@@ -90,10 +91,9 @@ def bench_train_env(config: str, steps: int) -> dict:
             "steps": steps, "config": config}  # fmt: skip
 
 
+@tool_main
 def main() -> None:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+    ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--worlds", default=",".join(DEFAULT_WORLDS), help="comma list of worlds")
     ap.add_argument("--steps", type=int, default=300, help="max control steps per world")
     ap.add_argument("--method", default="dwa3")

@@ -32,6 +32,7 @@ from d3dwa_bullet.learning.agents.onnx_export import export_onnx
 from d3dwa_bullet.live import DriveResult, DriveSettings, KachakaLink, drive, warm_up
 from d3dwa_bullet.methods import Controller, make_controller
 from d3dwa_bullet.resources import policies_dir
+from tools.entry import ToolParser, tool_main
 from transfer.sim_bridge import ReplayPipeline
 
 #: A long corridor: the robot does not reach the goal while the loop is measured.
@@ -100,10 +101,9 @@ def bench_method(address: str, method: str, steps: int, paced: bool, scratch: Pa
     }
 
 
+@tool_main
 def main() -> None:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+    ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument(
         "--methods", default="dwa3,d3dwa,d3dwa-onnx", help="comma list of methods (+ d3dwa-onnx)"
     )

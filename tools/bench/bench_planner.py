@@ -20,6 +20,7 @@ import numpy as np
 from d3dwa_bullet.params import PlannerParams
 from d3dwa_bullet.planning.planner import PlannerAction, plan
 from d3dwa_bullet.sim.lidar import LidarParams
+from tools.entry import ToolParser, tool_main
 
 
 def random_scene(rng: np.random.Generator, beams: int) -> np.ndarray:
@@ -114,10 +115,9 @@ def _continuous_clearance(
     return best
 
 
+@tool_main
 def main() -> None:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+    ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scenes", type=int, default=500, help="timed planning steps")
     ap.add_argument("--tau", type=float, default=5.0, help="prediction horizon, s")
     ap.add_argument("--seed", type=int, default=0)

@@ -32,6 +32,7 @@ from d3dwa_bullet.learning.agents.onnx_export import export_onnx, sample_observa
 from d3dwa_bullet.learning.agents.onnx_policy import load_onnx_policy
 from d3dwa_bullet.learning.agents.policy import load_policy
 from d3dwa_bullet.methods import LEARNED, method_observation, one_policy
+from tools.entry import ToolParser, tool_main
 
 WARM_UP = 100
 
@@ -74,10 +75,9 @@ def bench(method: str, path: Path, calls: int, seed: int, scratch: Path) -> dict
     }
 
 
+@tool_main
 def main() -> None:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+    ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--methods", default=",".join(LEARNED), help="comma list of learned methods")
     ap.add_argument("--policy", help="checkpoint directory (only with a single --methods)")
     ap.add_argument("--calls", type=int, default=5000)

@@ -24,6 +24,7 @@ from pathlib import Path
 from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.evaluation.results import CSV_FIELDS
 from d3dwa_bullet.evaluation.sweep import SweepSettings, read_sweep, run_sweep
+from tools.entry import ToolParser, tool_main
 
 #: The benchmark's sweep: 3 methods x 3 worlds (R1, R2, one unseen R1-style layout) x 3
 #: noise conditions (none, lidar dropout 0.5, the `real` profile) = 27 episodes.
@@ -84,10 +85,9 @@ def run(workers: int = 2, time_limit: float | None = None, root: str | None = No
     }
 
 
+@tool_main
 def main() -> None:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+    ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--workers", type=int, default=2, help="the parallel run's workers")
     ap.add_argument("--quick", action="store_true", help="10 s episode time limit")
     ap.add_argument("--json", action="store_true")
