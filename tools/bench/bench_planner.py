@@ -14,6 +14,7 @@ import argparse
 import json
 import math
 import time
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -116,7 +117,7 @@ def _continuous_clearance(
 
 
 @tool_main
-def main() -> None:
+def main(argv: Sequence[str] | None = None) -> None:
     ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scenes", type=int, default=500, help="timed planning steps")
     ap.add_argument("--tau", type=float, default=5.0, help="prediction horizon, s")
@@ -129,7 +130,7 @@ def main() -> None:
         help="also compare with the reference on N scenes",
     )
     ap.add_argument("--json", action="store_true", help="print one JSON object")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     out = bench(args.scenes, args.seed, args.tau)
     if args.check:
         out["check"] = check(args.check, args.seed + 1)

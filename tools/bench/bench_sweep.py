@@ -19,6 +19,7 @@ import os
 import resource
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 from d3dwa_bullet.episode import EpisodeConfig
@@ -86,12 +87,12 @@ def run(workers: int = 2, time_limit: float | None = None, root: str | None = No
 
 
 @tool_main
-def main() -> None:
+def main(argv: Sequence[str] | None = None) -> None:
     ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--workers", type=int, default=2, help="the parallel run's workers")
     ap.add_argument("--quick", action="store_true", help="10 s episode time limit")
     ap.add_argument("--json", action="store_true")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     out = run(args.workers, 10.0 if args.quick else None)
     print(json.dumps(out) if args.json else "\n".join(f"{k:>20}: {v}" for k, v in out.items()))
 

@@ -33,7 +33,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 import numpy as np
 import torch
@@ -59,7 +59,7 @@ from d3dwa_bullet.learning.training.config import (
 )
 from d3dwa_bullet.learning.value_calibration import calibrate
 from d3dwa_bullet.resources import configs_dir
-from tools.entry import tool_main
+from tools.entry import ToolParser, tool_main
 
 DEFAULT_CONFIG = "d3dwa.yaml"
 """The shipped training config whose env and agent block are mirrored (in configs/)."""
@@ -239,17 +239,9 @@ def _config(args: argparse.Namespace) -> TrainConfig:
     return config
 
 
-class _Parser(argparse.ArgumentParser):
-    """Bad options are one line on stderr and exit status 2 (no usage block)."""
-
-    def error(self, message: str) -> NoReturn:
-        print(f"sb3_crosscheck: error: {message}", file=sys.stderr)
-        sys.exit(2)
-
-
 @tool_main
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = _Parser(description=__doc__.splitlines()[0])
+    ap = ToolParser(description=__doc__.splitlines()[0])
     ap.add_argument("--config", help=f"training config YAML (default: configs/{DEFAULT_CONFIG})")
     ap.add_argument("--steps", type=int, default=40_000, help="env steps of SB3's training")
     ap.add_argument("--seed", type=int, default=0)

@@ -23,7 +23,11 @@ from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import ResultsError
-from d3dwa_bullet.learning.agents.policy_terms import DEFAULT_DECISION_STEPS, folder_terms
+from d3dwa_bullet.learning.agents.policy_terms import (
+    DEFAULT_DECISION_STEPS,
+    decision_period,
+    folder_terms,
+)
 from d3dwa_bullet.learning.value_calibration import ValueCalibration
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.methods import LEARNED
@@ -72,10 +76,16 @@ def _summary(path: Path) -> dict[str, Any]:
 
 def _decision_steps(folder: Path) -> int:
     """Control steps per decision of one seed folder: the period its meta.json records,
-    checked against its config.json (``policy_terms.folder_terms``); 1 without either."""
-    if not (folder / "meta.json").is_file():
-        return DEFAULT_DECISION_STEPS
-    return int(folder_terms(folder)["decision_steps"])  # type: ignore[call-overload]
+    checked against its config.json (``policy_terms.folder_terms``), or its config.json's
+    alone without a meta.json; 1 without either. CheckpointError (one line) for a bad one."""
+    if (folder / "meta.json").is_file():
+        return int(folder_terms(folder)["decision_steps"])  # type: ignore[call-overload]
+    config = folder / "config.json"
+    data = load_json(config, ResultsError) if config.is_file() else {}
+    if not isinstance(data, dict):
+        raise ResultsError(f"{config}: expected a JSON object, got {type(data).__name__}")
+    value = data.get("decision_steps", DEFAULT_DECISION_STEPS)
+    return decision_period(value, f"{config}: decision_steps")
 
 
 def _value_text(values: dict[str, Any] | None) -> str:
