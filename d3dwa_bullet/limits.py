@@ -104,8 +104,36 @@ cut and ends in a hash of the whole (:func:`d3dwa_bullet.io.file_stem`), so it s
 the atomic writer's temporary name adds 14 bytes to the final one."""
 
 MAX_DECISION_STEPS = Limit(100, "a decision period of 10 s at 10 Hz is a sixth of an episode")
-"""Decision period, control steps: a training config's ``decision_steps``, a policy's recorded
-period, and a reference method's hold (``random@10``); the shipped policies decide every 10."""
+"""Longest decision period, control steps each chosen action is held (docs/design.md#decision-period):
+a training config's and the env's ``decision_steps``, and what a policy's meta.json or ONNX
+metadata may record, and a reference method's hold (``random@10``). The paper decides every
+step; the shipped policies every 10."""
+
+
+def is_decision_period(value: object) -> bool:
+    """Whether ``value`` is a decision period: a whole number in [1, MAX_DECISION_STEPS]."""
+    return (
+        isinstance(value, int)
+        and not isinstance(value, bool)
+        and 1 <= value <= MAX_DECISION_STEPS.value
+    )
+
+
+MAX_NOTE_VALUE_CHARS = Limit(120, "a note is one line of a page, a table and meta.json")
+"""Characters of one value a note copies from a file the user brought (a field of a policy's
+config.json named on the page, in table.md and meta.json); a longer value is cut and says so."""
+
+MAX_NOTE_CHARS = Limit(2_000, "a note is one line of a page, a table and meta.json")
+"""Characters of one whole note (several values and a reason); longer is cut and says so."""
+
+
+def cut_text(text: str, limit: Limit) -> str:
+    """``text``, or its first ``limit`` characters and a mark saying how long it was."""
+    size = int(limit.value)
+    if len(text) <= size:
+        return text
+    return f"{text[:size]}... [cut: {len(text)} characters]"
+
 
 MAX_PHYSICS_HZ = Limit(10_000, "each control step runs physics_hz / control_hz PyBullet steps")
 """``--physics-hz`` of run, eval and sweep: the protocol simulates at 240 Hz; 10 kHz makes

@@ -18,6 +18,8 @@ names the file:
   :data:`~d3dwa_bullet.limits.MAX_ALIAS_NODES` nodes: an alias repeats its anchor's node,
   so nine lines of aliases make a billion items (the "billion laughs"). The few aliases
   ``yaml.safe_dump`` writes for a list used twice load as before;
+- a mapping that gives one key twice (YAML keeps the last silently; a JSON object likewise),
+  named with its line;
 - YAML tags beyond the safe ones (``!!python/object`` ...), as ``yaml.safe_load`` does.
 
 ``tests/test_loading.py`` fails if any other module calls ``yaml.safe_load``,
@@ -92,6 +94,30 @@ class _BoundedLoader(yaml.SafeLoader):
         finally:
             self._depth -= nested
 
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> Any:
+        """The mapping, refusing a key given twice: YAML would keep the last one silently,
+        so a field repeated at the end of a config would change the run without a word."""
+        seen: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            if key_node.tag == "tag:yaml.org,2002:merge":  # ``<<: *base`` may repeat keys
+                continue
+            key = self.construct_object(key_node, deep=True)
+            try:
+                first = seen.setdefault(key, key_node.start_mark.line + 1)
+            except TypeError:  # an unhashable key: the constructor below refuses it
+                continue
+            if first != key_node.start_mark.line + 1:
+                raise _Refused(
+                    f"line {key_node.start_mark.line + 1}: key {_shown_key(key)} is given twice "
+                    f"(first on line {first}); YAML would keep the last one silently"
+                )
+        return super().construct_mapping(node, deep=deep)
+
+
+def _shown_key(key: Any) -> str:
+    text = repr(key)
+    return text if len(text) <= 60 else f"{text[:57]}..."
+
 
 def parse_yaml(text: str, error: type[D3DWAError], source: str) -> Any:
     """The content of one YAML document (None when empty); ``error`` naming ``source``."""
@@ -129,11 +155,29 @@ def _check_depth(value: Any, error: type[D3DWAError], source: str) -> Any:
     return value
 
 
+class _DuplicateKey(ValueError):
+    """A JSON object naming one key twice."""
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise _DuplicateKey(
+                f"key {_shown_key(key)} is given twice in one object; JSON readers would keep "
+                "the last one silently"
+            )
+        out[key] = value
+    return out
+
+
 def parse_json(text: str | bytes, error: type[D3DWAError], source: str) -> Any:
     """The content of one JSON document; ``error`` naming ``source`` when it is not JSON
     or nests deeper than the limit."""
     try:
-        value = json.loads(text)
+        value = json.loads(text, object_pairs_hook=_unique_keys)
+    except _DuplicateKey as err:
+        raise error(f"{source}: not valid JSON ({err})") from err
     except RecursionError as err:
         raise error(
             f"{source}: nested more than {MAX_NESTING_DEPTH.value} levels deep "

@@ -4,8 +4,10 @@ and, with ``transfer.sim_bridge.make_step_fn``, the estimator, policy and planne
 The step function's contract (``ScanStep`` in, ``StepOutput`` out, ``SkipScan`` to skip)
 is in ``transfer.replay_step``; the rows, summary and figures in ``transfer.replay_output``.
 
-Outputs in ``out_dir``: ``replay.csv`` (one row per replayed scan, flushed row by row, so a
-run that fails or is killed keeps every completed row), ``summary.json`` (written
+Outputs in ``out_dir``: ``replay.csv`` (one row per replayed scan, flushed row by row into
+``PARTIAL_CSV`` and moved over ``replay.csv`` when the run ends, complete or failed: an
+earlier replay's file stays whole until then, and a killed run's rows are in the partial
+file), ``summary.json`` (written
 atomically; ``status`` is "running" until the run ends, then "complete" or "failed: ..."),
 and figures ``path.png`` (path coloured by tau), ``sectors.png`` (sector ranges over time),
 ``commands.png`` (planner vs recorded command).
@@ -14,6 +16,7 @@ and figures ``path.png`` (path coloured by tau), ``sectors.png`` (sector ranges 
 from __future__ import annotations
 
 import csv
+import errno
 import json
 import math
 import os
@@ -44,6 +47,8 @@ __all__ = [
     "replay_bag",
 ]
 
+PARTIAL_CSV = ".replay.csv.partial"
+"""Where replay.csv's rows are written while the replay runs."""
 SKIP_BEFORE_ODOMETRY = "before first odometry sample"
 SKIP_AFTER_ODOMETRY = "after last odometry sample"
 SKIP_NO_VALID_BEAM = "all beams invalid"
@@ -159,11 +164,14 @@ def replay_bag(
         out.mkdir(parents=True, exist_ok=True)
         result.files = {"csv": out / "replay.csv", "summary": out / "summary.json"}
         _write_json(result.files["summary"], result.summary())
-        try:  # replay.csv is the replay's own: replaced, but never written through a link
+        partial = out / PARTIAL_CSV  # an old replay.csv stays whole until this one ends
+        if result.files["csv"].is_symlink():  # replaced at the end, never through a link
+            raise WriteError(result.files["csv"], OSError(errno.ELOOP, "symbolic link"))
+        try:  # never written through a link; moved over replay.csv when the replay ends
             flags = os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW
-            handle = os.fdopen(os.open(result.files["csv"], flags, 0o666), "w", newline="")
+            handle = os.fdopen(os.open(partial, flags, 0o666), "w", newline="")
         except OSError as err:
-            raise WriteError(result.files["csv"], err) from err
+            raise WriteError(partial, err) from err
         writer = csv.writer(handle)
         writer.writerow(csv_columns(observation_names(step_fn)))
         handle.flush()
@@ -174,11 +182,11 @@ def replay_bag(
     except BaseException as err:
         result.status = f"failed: {type(err).__name__}: {err}"
         if handle is not None:
-            handle.close()
+            _finish_csv(handle, result.files["csv"])
             _write_json(result.files["summary"], result.summary())
         raise
     if handle is not None:
-        handle.close()
+        _finish_csv(handle, result.files["csv"])
     result.status = "complete"
     if out is not None:
         if plots and result.rows:
@@ -259,3 +267,12 @@ def _run(
             f"no scan overlaps the odometry: scans span [{times[0]}, {times[-1]}] ns, "
             f"odometry [{o.t_ns[0]}, {o.t_ns[-1]}] ns on the {bag.clock} clock"
         )
+
+
+def _finish_csv(handle: Any, target: Path) -> None:
+    """Close the rows written so far and move them over ``target`` in one step."""
+    handle.close()
+    try:
+        os.replace(target.parent / PARTIAL_CSV, target)
+    except OSError as err:
+        raise WriteError(target, err) from err

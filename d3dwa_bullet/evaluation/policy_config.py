@@ -17,6 +17,7 @@ from d3dwa_bullet.evaluation.policy_runs import PolicyRun
 from d3dwa_bullet.evaluation.results import differences
 from d3dwa_bullet.learning.agents.policy_terms import checkpoint_terms
 from d3dwa_bullet.learning.training.config import TrainConfig, load_train_config
+from d3dwa_bullet.limits import MAX_NOTE_CHARS, MAX_NOTE_VALUE_CHARS, cut_text
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.resources import configs_dir
 
@@ -43,7 +44,7 @@ def _order(name: str) -> tuple[bool, bool, str]:
 
 
 def _value(value: Any) -> str:
-    return "unset" if value is None else str(value)
+    return "unset" if value is None else cut_text(str(value), MAX_NOTE_VALUE_CHARS)
 
 
 def policy_config_note(run: PolicyRun, recovery: str, policy: str | None) -> str | None:
@@ -98,7 +99,8 @@ def _layer(trained: str, recovery: str) -> str:
 def policy_config_notes(runs: Sequence[PolicyRun], recovery: str, policy: str | None) -> list[str]:
     """:func:`policy_config_note` for the first training seed of each learned method, brought
     with ``--policy`` or shipped (the seeds of one method share their config:
-    ``policy_runs`` checks)."""
+    ``policy_runs`` checks). Values copied from a user's config.json are cut to
+    ``MAX_NOTE_VALUE_CHARS``, a whole note to ``MAX_NOTE_CHARS`` (a mark says so)."""
     notes, seen = [], set()
     for run in runs:
         if run.method in seen:
@@ -106,5 +108,5 @@ def policy_config_notes(runs: Sequence[PolicyRun], recovery: str, policy: str | 
         note = policy_config_note(run, recovery, policy)
         if note is not None:
             seen.add(run.method)
-            notes.append(note)
+            notes.append(cut_text(note, MAX_NOTE_CHARS))
     return notes

@@ -8,7 +8,7 @@ checkpoint, or one ``seed-<k>`` folder given as ``--policy``). A fixed or refere
 (``random``) is one run with no policy.
 
 The seeds of one method must be one experiment: trained under the same config (all but
-the seed) and the same action set; a folder mixing configs is refused, naming both seeds
+the seed), the same action set and the same recorded terms (``policy_terms.folder_terms``); a folder mixing configs is refused, naming both seeds
 and what differs. :func:`policy_digests` names the weights each run drives, so that a
 resumed evaluation can refuse rows driven by other weights (a policy folder replaced by
 new training).
@@ -24,6 +24,7 @@ from typing import Any
 from d3dwa_bullet.controllers import default_policy_path
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.evaluation.results import differences
+from d3dwa_bullet.learning.agents.policy_terms import folder_terms
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.method_specs import needs_policy
 from d3dwa_bullet.seed_dirs import parse_seeds, seed_dirs, seed_of
@@ -62,11 +63,13 @@ def _experiment(folder: Path) -> dict[str, Any]:
             found["config"] = data
         else:
             found["actions"] = data.get("actions")
+            found["terms"] = folder_terms(folder)  # meta.json's, checked against config.json
     return found
 
 
 def check_one_experiment(folder: Path, seeds: dict[int, Path]) -> None:
-    """CheckpointError unless every seed folder was trained under one config and action set."""
+    """CheckpointError unless every seed folder was trained under one config and action set,
+    and records the same terms (decision period, recovery, observation) in its meta.json."""
     items = list(seeds.items())
     if not items:
         return

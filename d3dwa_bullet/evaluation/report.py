@@ -42,6 +42,7 @@ from d3dwa_bullet.evaluation.sweep import (
 )
 from d3dwa_bullet.evaluation.tables import paper_table, run_notes
 from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text
+from d3dwa_bullet.limits import MAX_NOTE_CHARS, MAX_NOTE_VALUE_CHARS, cut_text
 from d3dwa_bullet.method_specs import method_label
 from d3dwa_bullet.resources import policies_dir as shipped_policies_dir
 from d3dwa_bullet.world.registry import load_world
@@ -177,7 +178,7 @@ def write_table_page(
     methods, worlds, seeds, noise = eval_settings(meta)
     dest = Path(dest)
     dest.parent.mkdir(parents=True, exist_ok=True)
-    notes = meta.get("settings", {}).get("policy_notes", [])
+    notes = policy_notes(out, meta)
     page = eval_markdown(
         rows, methods, worlds, seeds, noise, title, recovery_of(out), policy_notes=notes
     )
@@ -230,7 +231,7 @@ def _eval_body(out: Path, meta: dict[str, Any], rows: list[dict], partial: bool)
     methods, worlds, seeds, noise = eval_settings(meta)
     note = " (PARTIAL)" if partial else ""
     recovery = meta.get("settings", {}).get("recovery", "none")
-    notes = meta["settings"].get("policy_notes", [])
+    notes = policy_notes(out, meta)
     body = eval_markdown(
         rows, methods, worlds, seeds, noise, f"Tables{note}", recovery, policy_notes=notes
     )
@@ -298,7 +299,7 @@ def _sweep_body(out: Path, meta: dict[str, Any], partial: bool) -> str:
     lines.append(f"\n## Results{note}\n\n")
     by_name = {p.stem: p for p in figures}
     saved = meta["settings"]  # as written: it also holds what SweepSettings does not
-    tables = run_notes(saved.get("recovery", "none"), saved.get("policy_notes", []))
+    tables = run_notes(saved.get("recovery", "none"), policy_notes(out, meta))
     tables += sweep_markdown(rows, settings)
     # Put each axis's figure above its table.
     for name in [*settings.axes, "profiles"]:
@@ -357,3 +358,17 @@ def write_report(
     path = out / "report.md"
     atomic_write_text(path, "".join(page))
     return Report(path, kind, done, expected)
+
+
+def policy_notes(out: Path, meta: Mapping[str, Any]) -> list[str]:
+    """meta.json's ``settings.policy_notes``: ResultsError, one line naming the file, unless
+    it is a list of strings (a hand-edited file could hold anything); each cut to
+    ``MAX_NOTE_CHARS``."""
+    settings = meta.get("settings", {})
+    notes = settings.get("policy_notes", []) if isinstance(settings, Mapping) else []
+    if not isinstance(notes, list) or not all(isinstance(n, str) for n in notes):
+        shown = cut_text(repr(notes), MAX_NOTE_VALUE_CHARS)
+        raise ResultsError(
+            f"{out / 'meta.json'}: settings.policy_notes is {shown}, expected a list of strings"
+        )
+    return [cut_text(n, MAX_NOTE_CHARS) for n in notes]

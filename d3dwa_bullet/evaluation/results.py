@@ -31,9 +31,8 @@ from __future__ import annotations
 import csv
 import io
 import json
-import math
 import os
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict
 from pathlib import Path
@@ -42,8 +41,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from d3dwa_bullet import __version__
-from d3dwa_bullet.episode_metrics import OUTCOMES
 from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation.columns import TYPED_COLUMNS, check_one_track
 from d3dwa_bullet.io import AppendFile, atomic_write_bytes, atomic_write_text, read_text
 from d3dwa_bullet.loading import load_json, parse_json
 
@@ -112,7 +111,7 @@ def read_results(out: Path) -> list[dict[str, Any]]:
     for line, row in enumerate(rows, start=2):
         if set(CSV_FIELDS) - set(row):
             raise ResultsError(f"{path}: missing columns {sorted(set(CSV_FIELDS) - set(row))}")
-        for column, (parse, expected) in _TYPED_COLUMNS.items():
+        for column, (parse, expected) in TYPED_COLUMNS.items():
             try:
                 row[column] = parse(row[column])
             except (TypeError, ValueError) as err:  # TypeError: a row shorter than the header
@@ -121,40 +120,8 @@ def read_results(out: Path) -> list[dict[str, Any]]:
                     f"{row[column]!r}, not {expected}"
                 ) from err
         row[RECOVERY_FIELD] = row.get(RECOVERY_FIELD) or "none"
+    check_one_track(path, rows, RECOVERY_FIELD)
     return rows
-
-
-def _checked(parse: Callable[[str], Any], ok: Callable[[Any], bool]) -> Callable[[str], Any]:
-    """parse, refusing (ValueError) a value that ok says no to."""
-
-    def read(text: str) -> Any:
-        if not ok(value := parse(text)):
-            raise ValueError(text)
-        return value
-
-    return read
-
-
-_COUNT = (_checked(int, lambda v: v >= 0), "a whole number >= 0")
-_TYPED_COLUMNS: dict[str, tuple[Callable[[str], Any], str]] = {
-    "seed": _COUNT,
-    "policy_seed": (
-        _checked(lambda t: None if t == "" else int(t), lambda v: v is None or v >= 0),
-        "empty or a whole number >= 0",
-    ),
-    "outcome": (_checked(str, lambda v: v in OUTCOMES), f"one of {', '.join(OUTCOMES)}"),
-    **dict.fromkeys(
-        ("time_s", "tl_m", "pd_rad"),
-        (_checked(float, lambda v: math.isfinite(v) and v >= 0), "a finite number >= 0"),
-    ),
-    "min_clearance_m": (
-        _checked(float, lambda v: not math.isnan(v) and v > -math.inf),
-        "a number, or inf for a world without obstacles",
-    ),
-    "steps": _COUNT,
-}
-"""How read_results reads each typed column, and what the message says it must be: a NaN
-or inf where a table averages, or an outcome no table counts, is refused, not counted."""
 
 
 def read_meta(out: Path) -> dict[str, Any]:

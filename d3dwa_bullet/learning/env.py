@@ -46,7 +46,7 @@ WAYLAND_DISPLAY) it is refused at construction. Rendering never changes an episo
 seed gives the same steps with or without it.
 
 Beyond the paper (off by default), ``decision_steps=k`` holds each action for k control steps
-and sums their rewards (info["control_steps"]: how many ran).
+and sums their rewards (``learning.decision_period``).
 
 ``step`` refuses (ConfigError) an action that is not an int or numpy integer in the space: a
 float or a bool is not truncated; ``reset`` refuses option keys outside ``tasks.RESET_OPTIONS``.
@@ -59,7 +59,6 @@ and the action of that step is not used; ``info["recovery"]`` names the behaviou
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from typing import Any
@@ -70,7 +69,10 @@ from gymnasium import spaces
 
 from d3dwa_bullet.episode import Episode, EpisodeConfig, EpisodeResult
 from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.learning.decision_period import StepResult, check_decision_steps, held_step
+from d3dwa_bullet.learning.rebuild import Rebuild
 from d3dwa_bullet.learning.render import (
+    Pacer,
     RenderParams,
     TopDownCanvas,
     check_render_mode,
@@ -94,7 +96,7 @@ def observation_space(dim: int = 12) -> spaces.Box:
     return spaces.Box(low, high, dtype=np.float32)
 
 
-class D3DWAEnv(gym.Env):
+class D3DWAEnv(Rebuild, gym.Env):
     """D3DWA control steps on sampled worlds as a Gymnasium env (see module docstring).
 
     worlds: world names, files or World objects sampled uniformly (within 1 - generator_prob).
@@ -136,11 +138,7 @@ class D3DWAEnv(gym.Env):
         decision_steps: int = 1,
     ) -> None:
         super().__init__()
-        if type(decision_steps) is not int or not 1 <= decision_steps <= 100:
-            raise ConfigError(
-                f"decision_steps must be a whole number in [1, 100], got {decision_steps}"
-            )
-        self.decision_steps = decision_steps  # docs/design.md#decision-period
+        self.decision_steps = check_decision_steps(decision_steps)
         self.observation_kind = check_observation_kind(observation, "D3DWAEnv observation")
         if recovery is not None:
             params = recovery if isinstance(recovery, RecoveryParams) else recovery_params(recovery)
@@ -185,7 +183,7 @@ class D3DWAEnv(gym.Env):
         self.last_action: PlannerAction | None = None
         """The planner parameters of the current episode's last step (None before it)."""
         self._canvas: TopDownCanvas | None = None
-        self._next_frame = 0.0
+        self._pacer = Pacer(self.metadata["render_fps"])
 
     # --- sampling -------------------------------------------------------------------------
 
@@ -248,7 +246,7 @@ class D3DWAEnv(gym.Env):
             )
         return obs, self._info(None)
 
-    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> StepResult:
         ep = self.episode
         if ep is None or ep.outcome is not None:
             raise RuntimeError("D3DWAEnv.step: call reset() first (the episode is over)")
@@ -257,17 +255,9 @@ class D3DWAEnv(gym.Env):
                 f"D3DWAEnv.step: action {action!r} ({type(action).__name__}) is not an integer "
                 f"in Discrete({self.actions.size}), i.e. 0..{self.actions.size - 1}"
             )
-        index = int(action)
-        total, n = 0.0, 0
-        while n < self.decision_steps:  # beyond the paper when > 1: hold the action
-            obs, r, terminated, truncated, info = self._control_step(index)
-            total, n = total + r, n + 1
-            if terminated or truncated:
-                break
-        info["control_steps"] = n
-        return obs, total, terminated, truncated, info
+        return held_step(self._control_step, int(action), self.decision_steps)
 
-    def _control_step(self, index: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+    def _control_step(self, index: int) -> StepResult:
         ep = self.episode  # one 0.1 s control step with a checked action index
         assert ep is not None
         t0 = perf()
@@ -293,7 +283,7 @@ class D3DWAEnv(gym.Env):
         )
         self.clock.charge("step", t0)
         if self.render_mode == "human":
-            self._pace()
+            self._pacer.wait()
         return obs, r, terminated, truncated, info
 
     def render(self) -> np.ndarray | None:
@@ -319,13 +309,6 @@ class D3DWAEnv(gym.Env):
     def close(self) -> None:
         self._close_episode()
         super().close()
-
-    def _pace(self) -> None:
-        """Hold a human-mode step to one control period of wall time (watchable speed)."""
-        now = time.monotonic()
-        if now < self._next_frame:
-            time.sleep(self._next_frame - now)
-        self._next_frame = max(now, self._next_frame) + 1.0 / self.metadata["render_fps"]
 
     # --- helpers --------------------------------------------------------------------------
 
@@ -363,35 +346,6 @@ class D3DWAEnv(gym.Env):
         if self.episode is not None:
             total.merge(self.episode.sim.clock.seconds)
         return total.seconds
-
-    def rebuild(
-        self, rng_state: Mapping[str, Any], actions: Sequence[int], task_weights: Any = None
-    ) -> np.ndarray:
-        """Re-run an episode exactly: restore the env RNG to ``rng_state`` (a former
-        ``reset_rng_state``), reset with ``task_weights`` (those of that reset), take
-        ``actions``; returns the observation reached. The env RNG then stands where it stood
-        after that episode's reset, so later resets draw what they drew the first time."""
-        self.np_random = np.random.Generator(np.random.PCG64(0))
-        self.np_random.bit_generator.state = dict(rng_state)
-        options = {} if task_weights is None else {"task_weights": task_weights}
-        obs, _ = self.reset(options=options)
-        for i, a in enumerate(actions):
-            obs, _, terminated, truncated, _ = self.step(a)
-            if (terminated or truncated) and i + 1 < len(actions):
-                raise RuntimeError(
-                    f"D3DWAEnv.rebuild: the episode ended after {i + 1} of {len(actions)} actions"
-                )
-        return obs
-
-    rebuild_plan: Mapping[str, Any] | None = None
-    """What ``rebuild_from_plan`` re-runs: {"rng_state", "actions", "task_weights"} (set
-    per env through a vector env's ``set_attr``, then called through ``call``)."""
-
-    def rebuild_from_plan(self) -> np.ndarray:
-        plan = self.rebuild_plan
-        if plan is None:
-            raise RuntimeError("D3DWAEnv.rebuild_from_plan: no rebuild_plan set")
-        return self.rebuild(plan["rng_state"], plan["actions"], plan.get("task_weights"))
 
     def _close_episode(self) -> None:
         if self.episode is not None:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import os
 import sys
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -256,3 +257,18 @@ def episode_frame(canvas: TopDownCanvas, ep: Episode, action: PlannerAction | No
         trail=np.asarray(ep.truth)[:, :2],
         text=text,
     )
+
+
+class Pacer:
+    """Holds each human-mode step to one control period of wall time (watchable speed)."""
+
+    def __init__(self, fps: float) -> None:
+        self.period = 1.0 / fps
+        self._next_frame = 0.0
+
+    def wait(self) -> None:
+        """Sleep until one period has passed since the last step (not at all if it has)."""
+        now = time.monotonic()
+        if now < self._next_frame:
+            time.sleep(self._next_frame - now)
+        self._next_frame = max(now, self._next_frame) + self.period

@@ -297,7 +297,7 @@ def start_server(
     )
     add_KachakaApiServicer_to_server(servicer, server)
     try:
-        bound = server.add_insecure_port(f"{host}:{port}")
+        bound = server.add_insecure_port(host_port(host, port))
     except RuntimeError as err:
         bound, reason = 0, str(err)
     else:
@@ -307,3 +307,10 @@ def start_server(
         raise ConfigError(f"--port {port}: cannot listen on {host}:{port} ({reason})")
     server.start()
     return server, bound
+
+
+def host_port(host: str, port: int) -> str:
+    """'HOST:PORT' for gRPC, an IPv6 address in brackets whether or not it came in them
+    (``--host ::1`` and ``--host [::1]`` listen alike)."""
+    bare = host[1:-1] if host.startswith("[") and host.endswith("]") else host
+    return f"[{bare}]:{port}" if ":" in bare else f"{bare}:{port}"

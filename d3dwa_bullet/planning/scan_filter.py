@@ -95,7 +95,10 @@ SCAN_FILTERS: dict[str, tuple[str, ...]] = {
     "speckle": ("speckle",),
     "speckle+median": ("speckle", "median"),
 }
-_STAGES = {"median": TemporalMedian, "speckle": Speckle}
+_STAGES: dict[str, type[TemporalMedian] | type[Speckle]] = {
+    "median": TemporalMedian,
+    "speckle": Speckle,
+}
 
 
 @dataclass
@@ -106,7 +109,9 @@ class ScanFilter:
 
     def __post_init__(self) -> None:
         check_scan_filter(self.name)
-        self._stages = [_STAGES[s]() for s in SCAN_FILTERS[self.name]]
+        self._stages: list[TemporalMedian | Speckle] = [
+            _STAGES[s]() for s in SCAN_FILTERS[self.name]
+        ]
 
     def reset(self) -> None:
         for stage in self._stages:

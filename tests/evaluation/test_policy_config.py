@@ -13,6 +13,7 @@ from d3dwa_bullet.evaluation.policy_runs import method_runs
 from d3dwa_bullet.learning.agents.checkpoint import save_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.training.config import load_train_config
+from d3dwa_bullet.limits import MAX_NOTE_CHARS
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
 from d3dwa_bullet.resources import configs_dir
 from tests.support.cli import run
@@ -117,3 +118,15 @@ def test_a_policy_of_another_config_runs_and_its_page_names_it(
     # and it shows the curves of the policy it evaluated, not the shipped ones
     assert "figures/learning_curve_d3dwa_seed-0.png" in report
     assert f"(`{folder.name}/seed-0/learning_curve.png`)" in report and "dqdwa" not in report
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [{"eval_noise": "x" * 2**20}, {"worlds": ["TS1"] * 100_000}],
+    ids=["unreadable", "readable"],
+)
+def test_a_megabyte_value_in_a_users_config_is_cut_and_marked(tmp_path, changes):
+    folder = str(committed_seeds(tmp_path, **changes))
+    (note,) = policy_config_notes(method_runs(["d3dwa"], folder), "nav2", folder)
+    assert len(note) <= MAX_NOTE_CHARS.value + 40 and "[cut: " in note, note[:300]
+    assert "\n" not in note

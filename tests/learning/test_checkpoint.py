@@ -15,6 +15,7 @@ import torch
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import CheckpointError, WriteError
 from d3dwa_bullet.learning.agents import checkpoint as ckpt
+from d3dwa_bullet.learning.agents import checkpoint_files, checkpoint_load, checkpoint_save
 from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint, save_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
@@ -62,7 +63,7 @@ def _refresh_digest(directory: Path, name: str) -> None:
     """Make meta.json agree with a tampered data file, to reach the deeper checks."""
     path = directory / "meta.json"
     meta = json.loads(path.read_text())
-    meta["files"][name] = ckpt._digest(directory / name)
+    meta["files"][name] = checkpoint_files.digest(directory / name)
     path.write_text(json.dumps(meta))
 
 
@@ -148,7 +149,7 @@ def test_a_network_larger_than_its_weights_file_is_refused_before_allocation(
     def no_network(*args, **kwargs):
         raise AssertionError("the network was built")
 
-    monkeypatch.setattr(ckpt, "D3QNAgent", no_network)
+    monkeypatch.setattr(checkpoint_load, "D3QNAgent", no_network)
     with pytest.raises(CheckpointError, match=r"10,011,500,101 weights .* holds only"):
         load_checkpoint(saved)
 
@@ -283,7 +284,7 @@ def test_failed_save_keeps_existing_checkpoint(
         f.write(b"PK\x03\x04partial")
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(ckpt.torch, "save", exploding_save)
+    monkeypatch.setattr(checkpoint_save.torch, "save", exploding_save)
     with pytest.raises(
         WriteError, match=f"^{re.escape(str(target))}: cannot write: No space left on device$"
     ):
@@ -296,14 +297,14 @@ def test_failed_swap_restores_old_checkpoint(
 ) -> None:
     good = _trained_d3qn(seed=2)
     target = save_checkpoint(tmp_path / "ck", good)
-    real_replace = ckpt.os.replace
+    real_replace = checkpoint_save.os.replace
 
     def failing_replace(src, dst):
         if ".tmp-" in str(src):
             raise OSError("rename failed")
         return real_replace(src, dst)
 
-    monkeypatch.setattr(ckpt.os, "replace", failing_replace)
+    monkeypatch.setattr(checkpoint_save.os, "replace", failing_replace)
     with pytest.raises(OSError, match="rename failed"):
         save_checkpoint(target, _trained_d3qn(seed=3))
     monkeypatch.undo()

@@ -18,7 +18,7 @@ import pytest
 import d3dwa_bullet.learning.agents as agents
 from d3dwa_bullet.controllers import default_policy_path, make_controller
 from d3dwa_bullet.errors import CheckpointError, ConfigError
-from d3dwa_bullet.learning.agents import onnx_export, onnx_policy
+from d3dwa_bullet.learning.agents import onnx_export, onnx_guard, onnx_policy
 from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint, read_meta, save_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
@@ -268,7 +268,7 @@ def test_missing_files_directories_and_huge_files_are_refused(exported, tmp_path
     with pytest.raises(CheckpointError) as err:
         load_onnx_policy(tmp_path)
     one_line(err, tmp_path, "a directory")
-    monkeypatch.setattr(onnx_policy, "MAX_POLICY_BYTES", Limit(1_000, "a test's limit"))
+    monkeypatch.setattr(onnx_guard, "MAX_POLICY_BYTES", Limit(1_000, "a test's limit"))
     with pytest.raises(CheckpointError) as err:
         load_onnx_policy(exported[("d3dwa", 0)])
     one_line(err, exported[("d3dwa", 0)], "over the limit of 1000 bytes")

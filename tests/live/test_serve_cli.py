@@ -12,6 +12,7 @@ import pytest
 
 pytest.importorskip("kachaka_api", reason="the robot extra is not installed")
 
+from d3dwa_bullet.live.sim_robot import host_port  # noqa: E402
 from tests.support.serve_process import D3DWA  # noqa: E402
 
 
@@ -74,3 +75,12 @@ def test_grpc_logs_nothing_of_its_own_when_it_cannot_bind(busy_port):
     lines = done.stderr.splitlines()
     assert done.returncode == 0 and len(lines) == 1, lines
     assert lines[0].startswith(f"d3dwa: error: --port {busy_port}: cannot listen"), lines
+
+
+@pytest.mark.parametrize(
+    ("host", "port", "address"),
+    [("::1", 5, "[::1]:5"), ("[::1]", 5, "[::1]:5"), ("127.0.0.1", 5, "127.0.0.1:5"),
+     ("localhost", 5, "localhost:5")],
+)  # fmt: skip
+def test_an_ipv6_host_is_bracketed_for_grpc_with_or_without_brackets(host, port, address):
+    assert host_port(host, port) == address

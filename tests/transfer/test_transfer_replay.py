@@ -18,6 +18,7 @@ from d3dwa_bullet.errors import BagFormatError, WriteError
 from d3dwa_bullet.planning.observation import build_observation
 from d3dwa_bullet.sim.scan import LaserScan, scan_points_body
 from tests.support.bag_messages import scan_msg
+from transfer import replay as replay_module
 from transfer.bag_writer import BagRecorder
 from transfer.replay import replay_bag
 from transfer.replay_output import CSV_COLUMNS
@@ -219,3 +220,24 @@ def test_replay_never_writes_its_csv_through_a_link_in_out(tmp_path):
     with pytest.raises(WriteError, match="replay.csv: cannot write: it is a symbolic link"):
         replay_bag(tmp_path / "bag", out_dir=out, plots=False)
     assert outside.read_text() == "not a replay\n"
+
+
+def test_replay_keeps_an_earlier_csv_whole_until_it_ends(tmp_path, monkeypatch):
+    write_corridor_bag(tmp_path / "bag")
+    out = tmp_path / "out"
+    replay_bag(tmp_path / "bag", out_dir=out, plots=False)
+    earlier = (out / "replay.csv").read_text()
+    assert earlier.count("\n") > 2
+
+    seen: list[str] = []
+    real = replay_module._run
+
+    def watch(*args, **kwargs):  # what replay.csv holds while the new replay runs
+        seen.append((out / "replay.csv").read_text())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(replay_module, "_run", watch)
+    replay_bag(tmp_path / "bag", out_dir=out, plots=False)
+    assert seen == [earlier]
+    assert (out / "replay.csv").read_text().count("\n") == earlier.count("\n")  # same bag
+    assert not (out / replay_module.PARTIAL_CSV).exists()

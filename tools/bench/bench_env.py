@@ -28,11 +28,13 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections.abc import Sequence
 
 from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import Episode, EpisodeConfig
 from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.world.registry import load_world
+from tools.entry import ToolParser, tool_main
 
 DEFAULT_WORLDS = ["TS1", "TS3", "H1", "R3"]
 """The worlds of a bench run unless --worlds names others."""
@@ -90,10 +92,9 @@ def bench_train_env(config: str, steps: int) -> dict:
             "steps": steps, "config": config}  # fmt: skip
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+@tool_main
+def main(argv: Sequence[str] | None = None) -> None:
+    ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--worlds", default=",".join(DEFAULT_WORLDS), help="comma list of worlds")
     ap.add_argument("--steps", type=int, default=300, help="max control steps per world")
     ap.add_argument("--method", default="dwa3")
@@ -101,7 +102,7 @@ def main() -> None:
     ap.add_argument("--recovery", default="none", choices=("none", "nav2", "both"))
     ap.add_argument("--train-env", metavar="CONFIG", help="also step a training env of CONFIG")
     ap.add_argument("--json", action="store_true")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     worlds = args.worlds.split(",")
     kinds = ("none", "nav2") if args.recovery == "both" else (args.recovery,)
     runs: dict[str, list[dict]] = {k: [] for k in (*kinds, "train_env")}

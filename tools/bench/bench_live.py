@@ -24,6 +24,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +34,7 @@ from d3dwa_bullet.learning.agents.onnx_export import export_onnx
 from d3dwa_bullet.live import DriveResult, DriveSettings, KachakaLink, drive, warm_up
 from d3dwa_bullet.planning.controller import Controller
 from d3dwa_bullet.resources import policies_dir
+from tools.entry import ToolParser, tool_main
 from transfer.sim_bridge import ReplayPipeline
 
 #: A long corridor: the robot does not reach the goal while the loop is measured.
@@ -101,17 +103,16 @@ def bench_method(address: str, method: str, steps: int, paced: bool, scratch: Pa
     }
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+@tool_main
+def main(argv: Sequence[str] | None = None) -> None:
+    ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument(
         "--methods", default="dwa3,d3dwa,d3dwa-onnx", help="comma list of methods (+ d3dwa-onnx)"
     )
     ap.add_argument("--steps", type=int, default=1000, help="loop steps per method")
     ap.add_argument("--paced", action="store_true", help="run the loop at the control rate")
     ap.add_argument("--json", action="store_true")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     runs = []
     with tempfile.TemporaryDirectory() as scratch:
         for method in args.methods.split(","):

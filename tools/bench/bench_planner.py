@@ -14,12 +14,14 @@ import argparse
 import json
 import math
 import time
+from collections.abc import Sequence
 
 import numpy as np
 
 from d3dwa_bullet.params import PlannerParams
 from d3dwa_bullet.planning.planner import PlannerAction, plan
 from d3dwa_bullet.sim.lidar import LidarParams
+from tools.entry import ToolParser, tool_main
 
 
 def random_scene(rng: np.random.Generator, beams: int) -> np.ndarray:
@@ -114,10 +116,9 @@ def _continuous_clearance(
     return best
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+@tool_main
+def main(argv: Sequence[str] | None = None) -> None:
+    ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scenes", type=int, default=500, help="timed planning steps")
     ap.add_argument("--tau", type=float, default=5.0, help="prediction horizon, s")
     ap.add_argument("--seed", type=int, default=0)
@@ -129,7 +130,7 @@ def main() -> None:
         help="also compare with the reference on N scenes",
     )
     ap.add_argument("--json", action="store_true", help="print one JSON object")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     out = bench(args.scenes, args.seed, args.tau)
     if args.check:
         out["check"] = check(args.check, args.seed + 1)

@@ -20,7 +20,7 @@ import argparse
 import json
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +33,7 @@ from d3dwa_bullet.learning.agents.onnx_export import export_onnx, sample_observa
 from d3dwa_bullet.learning.agents.onnx_policy import load_onnx_policy
 from d3dwa_bullet.learning.agents.policy import load_policy
 from d3dwa_bullet.method_specs import LEARNED, method_observation
+from tools.entry import ToolParser, tool_main
 
 WARM_UP = 100
 
@@ -75,16 +76,15 @@ def bench(method: str, path: Path, calls: int, seed: int, scratch: Path) -> dict
     }
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+@tool_main
+def main(argv: Sequence[str] | None = None) -> None:
+    ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--methods", default=",".join(LEARNED), help="comma list of learned methods")
     ap.add_argument("--policy", help="checkpoint directory (only with a single --methods)")
     ap.add_argument("--calls", type=int, default=5000)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     methods = args.methods.split(",")
     if args.policy and len(methods) != 1:
         ap.error("--policy needs exactly one --methods")

@@ -21,7 +21,6 @@ the per-scan pipeline alone (observation, estimator, policy, planner, CSV row).
 
 from __future__ import annotations
 
-import argparse
 import json
 import statistics
 import sys
@@ -31,6 +30,7 @@ from pathlib import Path
 
 from d3dwa_bullet.controllers import default_policy_path, one_policy
 from d3dwa_bullet.method_specs import LEARNED, needs_policy
+from tools.entry import ToolParser, tool_main
 from transfer.bag_writer import BagRecorder
 from transfer.replay import replay_bag
 from transfer.sim_bridge import make_step_fn, record_episode
@@ -73,8 +73,9 @@ def bench(
     }
 
 
+@tool_main
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = ToolParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--bag", type=Path, help="bag to replay (default: record one)")
     ap.add_argument("--world", default="R3", help="world of the recorded episode")
     ap.add_argument("--noise", default="real", help="noise profile of the recorded episode")

@@ -19,11 +19,13 @@ import os
 import resource
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.evaluation.results import CSV_FIELDS
 from d3dwa_bullet.evaluation.sweep import SweepSettings, read_sweep, run_sweep
+from tools.entry import ToolParser, tool_main
 
 #: The benchmark's sweep: 3 methods x 3 worlds (R1, R2, one unseen R1-style layout) x 3
 #: noise conditions (none, lidar dropout 0.5, the `real` profile) = 27 episodes.
@@ -84,14 +86,13 @@ def run(workers: int = 2, time_limit: float | None = None, root: str | None = No
     }
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+@tool_main
+def main(argv: Sequence[str] | None = None) -> None:
+    ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--workers", type=int, default=2, help="the parallel run's workers")
     ap.add_argument("--quick", action="store_true", help="10 s episode time limit")
     ap.add_argument("--json", action="store_true")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     out = run(args.workers, 10.0 if args.quick else None)
     print(json.dumps(out) if args.json else "\n".join(f"{k:>20}: {v}" for k, v in out.items()))
 

@@ -32,7 +32,6 @@ intermediate checkpoints, with ``n_envs`` simulators (default: the config's).
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import tempfile
@@ -42,6 +41,7 @@ from pathlib import Path
 from d3dwa_bullet.learning.training import load_train_config, train
 from d3dwa_bullet.resources import configs_dir
 from tools.bench import bench_env
+from tools.entry import ToolParser, tool_main
 
 SHIPPED_BUDGET = 250_000
 
@@ -78,8 +78,9 @@ def run(steps: int = 3000, config: str | Path | None = None, n_envs: int | None 
     }
 
 
+@tool_main
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = ToolParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=3000, help="control steps to train")
     ap.add_argument("--config", default=str(configs_dir() / "d3dwa.yaml"))
     ap.add_argument("--n-envs", type=int, help="simulators in lock-step (default: the config's)")

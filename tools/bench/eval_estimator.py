@@ -14,7 +14,6 @@ hold seed by seed, not only on average.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -30,6 +29,7 @@ from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult
 from d3dwa_bullet.world.registry import load_world
+from tools.entry import ToolParser, tool_main
 
 #: The issue-3 target: EKF position RMSE at most this fraction of raw odometry's.
 TARGET_RATIO = 0.5
@@ -160,7 +160,7 @@ def run(
 
 
 def parse_args(argv: Sequence[str] | None = None) -> Args:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = ToolParser(description=__doc__.split("\n\n")[0])
     for f in fields(Args):
         flag = "--" + f.name.replace("_", "-")
         if f.type == "bool":
@@ -171,6 +171,7 @@ def parse_args(argv: Sequence[str] | None = None) -> Args:
     return Args(**vars(ap.parse_args(argv)))
 
 
+@tool_main
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     if args.seeds < 1:

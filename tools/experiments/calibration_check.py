@@ -19,7 +19,6 @@ the source over the 8 sectors (lower is closer).
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import io
 import json
@@ -36,6 +35,7 @@ from d3dwa_bullet.cli.app import main as d3dwa
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.loading import load_yaml, parse_json
 from randomization.profiles import load_profile
+from tools.entry import ToolParser, tool_main
 from transfer.compare import READING_CLASSES
 
 #: The source robot's lidar (randomization profile params.lidar); the rest is the base's.
@@ -143,8 +143,9 @@ def check(
     }
 
 
+@tool_main
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = ToolParser(description=__doc__.splitlines()[0])
     ap.add_argument("--world", default="H1")
     ap.add_argument("--method", default="dwa3")
     ap.add_argument("--base", default="real")

@@ -15,7 +15,6 @@ Exit status 1 if any world has no route.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -28,6 +27,7 @@ from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.reachability import footprint_reachable
 from d3dwa_bullet.world.registry import list_worlds, load_world_file
 from d3dwa_bullet.world.routes import REFERENCE_PATH_LENGTHS, shortest_path
+from tools.entry import ToolParser, tool_main
 
 
 def check_world(
@@ -90,8 +90,9 @@ def format_table(rows: Sequence[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+@tool_main
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = ToolParser(description=__doc__.splitlines()[0])
     ap.add_argument("paths", nargs="*", help="world files (default: every shipped world)")
     ap.add_argument("--json", action="store_true", help="print a JSON list of dicts")
     ap.add_argument("--resolution", type=float, default=DEFAULT_RESOLUTION, help="grid cell, m")

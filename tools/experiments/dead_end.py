@@ -13,7 +13,6 @@ is the step penalty's, whatever the network says (docs/history.md#learner).
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
@@ -24,6 +23,7 @@ import numpy as np
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.learning.agents.policy import greedy_policy
 from d3dwa_bullet.learning.training.config import make_env
+from tools.entry import ToolParser, tool_main
 from tools.experiments.value_check import load, q_table
 
 MOVED = 0.1
@@ -88,8 +88,9 @@ def describe(result: dict[str, Any]) -> str:
     )
 
 
+@tool_main
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m tools.experiments.dead_end")
+    ap = ToolParser(prog="python -m tools.experiments.dead_end")
     ap.add_argument("policy", type=Path, help="a policy folder (with config.json beside meta.json)")
     ap.add_argument("--world", required=True)
     ap.add_argument("--at", type=int, required=True, help="decisions of the greedy episode first")

@@ -13,7 +13,6 @@ noise profile; ``--json`` prints the records.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from collections import Counter, defaultdict
@@ -28,6 +27,7 @@ from d3dwa_bullet.evaluation.results import job_rows, load_log, recovery_of, row
 from d3dwa_bullet.evaluation.sweep_settings import PROFILES
 from d3dwa_bullet.io import atomic_savefig
 from d3dwa_bullet.method_specs import method_label
+from tools.entry import ToolParser, tool_main
 
 
 def failure_records(out: Path) -> list[dict[str, Any]]:
@@ -135,8 +135,9 @@ def figure(
     return path
 
 
+@tool_main
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = ToolParser(description=__doc__.splitlines()[0])
     ap.add_argument("dir", help="a results directory of `d3dwa sweep` or `d3dwa eval`")
     ap.add_argument("--figure", help="write the stacked-bar figure to this PNG")
     ap.add_argument("--json", action="store_true")

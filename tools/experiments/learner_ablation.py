@@ -15,7 +15,6 @@ methods.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
@@ -29,6 +28,7 @@ from d3dwa_bullet.learning.training.config import TrainConfig
 from d3dwa_bullet.learning.value_calibration import ValueCalibration
 from d3dwa_bullet.loading import load_yaml, parse_yaml
 from d3dwa_bullet.seed_dirs import seed_dirs
+from tools.entry import ToolParser, tool_main
 
 
 def parse_set(items: list[str]) -> dict[str, Any]:
@@ -152,8 +152,9 @@ def describe(summary: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+@tool_main
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m tools.experiments.learner_ablation")
+    ap = ToolParser(prog="python -m tools.experiments.learner_ablation")
     ap.add_argument("--config", type=Path, default=Path("configs/d3dwa.yaml"))
     ap.add_argument("--steps", type=int, default=40_000)
     ap.add_argument("--eval-every", type=int, default=10_000)

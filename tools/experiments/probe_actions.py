@@ -16,7 +16,6 @@ Prints a table (or JSON with ``--json``); exit status 2 on bad input.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from collections.abc import Sequence
@@ -28,6 +27,7 @@ from d3dwa_bullet.backends import run_local
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
 from d3dwa_bullet.world.registry import list_worlds, load_world
+from tools.entry import ToolParser, tool_main
 from tools.experiments.oracle import ORACLE, fixed_action_outcome, run_oracle
 
 ACTION_SETS = {"full": ACTIONS_FULL, "weights": ACTIONS_WEIGHTS_ONLY}
@@ -119,8 +119,9 @@ def format_table(rows: Sequence[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+@tool_main
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = ToolParser(description=__doc__.splitlines()[0])
     ap.add_argument("worlds", nargs="*", help="world names or files (default: every shipped world)")
     ap.add_argument("--actions", choices=sorted(ACTION_SETS), default="full", help="action set")
     ap.add_argument("--no-fixed", action="store_true", help="only the oracle")

@@ -14,7 +14,6 @@ Prints a table (or JSON with ``--json``); exit status 2 on bad input.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from collections.abc import Sequence
@@ -30,6 +29,7 @@ from d3dwa_bullet.method_specs import check_method, needs_policy
 from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.registry import load_world
 from d3dwa_bullet.world.route_start import route_polyline, route_pose
+from tools.entry import ToolParser, tool_main
 
 DEFAULT_FRACTIONS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
 
@@ -87,8 +87,9 @@ def format_table(world: World, methods: Sequence[str], rows: Sequence[dict[str, 
     return "\n".join(lines)
 
 
+@tool_main
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = ToolParser(description=__doc__.splitlines()[0])
     ap.add_argument("world", help="world name or file")
     ap.add_argument("--methods", default="d3dwa", help="comma-separated methods (default d3dwa)")
     ap.add_argument("--policy", default=None, help="policy directory for the learned methods")

@@ -20,7 +20,6 @@ read against ``--hold k``: holding any action for 1 s is worth something by itse
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from dataclasses import replace
@@ -34,6 +33,7 @@ from d3dwa_bullet.method_specs import HOLD_MARK, REFERENCE, check_method
 from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
 from d3dwa_bullet.world.registry import load_world
+from tools.entry import ToolParser, tool_main
 
 STYLES = ("R1-style", "R2-style", "R3-style")
 
@@ -44,8 +44,9 @@ def layouts() -> list:
     return shipped + generated
 
 
+@tool_main
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m tools.experiments.random_hold")
+    ap = ToolParser(prog="python -m tools.experiments.random_hold")
     ap.add_argument("--hold", default="1", help="control steps each draw is kept")
     ap.add_argument("--seeds", default="0", help="episode seeds, e.g. 0,1,2")
     ap.add_argument(

@@ -33,12 +33,20 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 import numpy as np
 import torch
-from stable_baselines3 import DQN
-from stable_baselines3.common.callbacks import BaseCallback
+
+try:  # the optional `sb3` extra; without it main says so in one line (tools.entry)
+    from stable_baselines3 import DQN
+    from stable_baselines3.common.callbacks import BaseCallback
+except ModuleNotFoundError as missing:
+    SB3_MISSING: ModuleNotFoundError | None = missing
+    DQN = Any
+    BaseCallback = object
+else:
+    SB3_MISSING = None
 
 from d3dwa_bullet.cli.options import split_list
 from d3dwa_bullet.errors import D3DWAError
@@ -51,6 +59,7 @@ from d3dwa_bullet.learning.training.config import (
 )
 from d3dwa_bullet.learning.value_calibration import calibrate
 from d3dwa_bullet.resources import configs_dir
+from tools.entry import ToolParser, tool_main
 
 DEFAULT_CONFIG = "d3dwa.yaml"
 """The shipped training config whose env and agent block are mirrored (in configs/)."""
@@ -230,16 +239,9 @@ def _config(args: argparse.Namespace) -> TrainConfig:
     return config
 
 
-class _Parser(argparse.ArgumentParser):
-    """Bad options are one line on stderr and exit status 2 (no usage block)."""
-
-    def error(self, message: str) -> NoReturn:
-        print(f"sb3_crosscheck: error: {message}", file=sys.stderr)
-        sys.exit(2)
-
-
+@tool_main
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = _Parser(description=__doc__.splitlines()[0])
+    ap = ToolParser(description=__doc__.splitlines()[0])
     ap.add_argument("--config", help=f"training config YAML (default: configs/{DEFAULT_CONFIG})")
     ap.add_argument("--steps", type=int, default=40_000, help="env steps of SB3's training")
     ap.add_argument("--seed", type=int, default=0)
@@ -247,6 +249,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--hidden", help="comma list of hidden widths instead of the config's")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
+    if SB3_MISSING is not None:
+        raise SB3_MISSING
     try:
         config = _config(args)
     except D3DWAError as err:

@@ -12,7 +12,6 @@ these curves say how training went, not how a method does on the reported worlds
 
 from __future__ import annotations
 
-import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -25,6 +24,7 @@ from d3dwa_bullet.learning.training.logs import read_metrics
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.method_specs import method_label
 from d3dwa_bullet.seed_dirs import kept_evaluation, seed_dirs
+from tools.entry import ToolParser, tool_main
 
 
 def seed_curves(run: Path) -> dict[int, tuple[np.ndarray, np.ndarray, int | None]]:
@@ -80,8 +80,9 @@ def figure(runs: Sequence[Path], out: Path) -> Path:
     return out
 
 
+@tool_main
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = ToolParser(description=__doc__.splitlines()[0])
     ap.add_argument("runs", nargs="+", help="training runs over seeds (folders of seed-<k>/)")
     ap.add_argument("--out", required=True, help="PNG to write")
     args = ap.parse_args(argv)

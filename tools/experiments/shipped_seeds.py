@@ -15,19 +15,25 @@ command's output.
 
 from __future__ import annotations
 
-import argparse
 import json
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.learning.agents.policy_terms import (
+    DEFAULT_DECISION_STEPS,
+    decision_period,
+    folder_terms,
+)
 from d3dwa_bullet.learning.value_calibration import ValueCalibration
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.method_specs import LEARNED
 from d3dwa_bullet.resources import policies_dir
 from d3dwa_bullet.seed_dirs import kept_evaluation, seed_dirs
+from tools.entry import ToolParser, tool_main
 
 
 def seed_records(folder: Path) -> list[dict[str, Any]]:
@@ -39,7 +45,7 @@ def seed_records(folder: Path) -> list[dict[str, Any]]:
             continue
         rows = []
         for k, path in seeds.items():
-            summary = load_json(path / "summary.json", ResultsError)
+            summary = _summary(path / "summary.json")
             keep, kept = kept_evaluation(path, summary)
             per = _decision_steps(path)
             step = kept.get("step")
@@ -53,11 +59,33 @@ def seed_records(folder: Path) -> list[dict[str, Any]]:
     return out
 
 
+def _summary(path: Path) -> dict[str, Any]:
+    """A seed's summary.json: ResultsError (one line naming file and field) unless it is an
+    object whose ``env_steps`` and ``wall_time_s`` are finite numbers >= 0."""
+    summary = load_json(path, ResultsError, "training summary.json")
+    if not isinstance(summary, dict):
+        raise ResultsError(f"{path}: expected a JSON object, got {type(summary).__name__}")
+    for key in ("env_steps", "wall_time_s"):
+        value = summary.get(key)
+        if not (isinstance(value, int | float) and not isinstance(value, bool)) or not (
+            math.isfinite(value) and value >= 0
+        ):
+            raise ResultsError(f"{path}: {key} is {value!r}, expected a number >= 0")
+    return summary
+
+
 def _decision_steps(folder: Path) -> int:
-    """Control steps per decision of one seed folder (1 without a config.json saying more)."""
+    """Control steps per decision of one seed folder: the period its meta.json records,
+    checked against its config.json (``policy_terms.folder_terms``), or its config.json's
+    alone without a meta.json; 1 without either. CheckpointError (one line) for a bad one."""
+    if (folder / "meta.json").is_file():
+        return int(folder_terms(folder)["decision_steps"])  # type: ignore[call-overload]
     config = folder / "config.json"
     data = load_json(config, ResultsError) if config.is_file() else {}
-    return int(data.get("decision_steps", 1) or 1)
+    if not isinstance(data, dict):
+        raise ResultsError(f"{config}: expected a JSON object, got {type(data).__name__}")
+    value = data.get("decision_steps", DEFAULT_DECISION_STEPS)
+    return decision_period(value, f"{config}: decision_steps")
 
 
 def _value_text(values: dict[str, Any] | None) -> str:
@@ -94,8 +122,9 @@ def markdown(records: Sequence[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+@tool_main
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = ToolParser(description=__doc__.splitlines()[0])
     ap.add_argument("--policies", help="policies folder (default: the shipped one)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)

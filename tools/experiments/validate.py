@@ -11,7 +11,6 @@ developer instrument, not a results table.
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import io
 import json
@@ -22,6 +21,7 @@ from pathlib import Path
 
 from d3dwa_bullet.cli.app import main as d3dwa
 from d3dwa_bullet.evaluation.results import read_results
+from tools.entry import ToolParser, tool_main
 
 VALIDATION_WORLDS = (
     ("TS1", "TS2", "TS3", "TS4")
@@ -52,8 +52,9 @@ def run(policy: str | Path, method: str = "d3dwa", workers: int = 0) -> dict:
     }
 
 
+@tool_main
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = ToolParser(description=__doc__.splitlines()[0])
     ap.add_argument("policies", nargs="+", help="policy directories (weights.pt + meta.json)")
     ap.add_argument("--method", default="d3dwa", help="the method the policies are of")
     ap.add_argument("--workers", type=int, default=0, help="local processes (0: all cores)")

@@ -21,7 +21,6 @@ best Q. Nothing is selected by it: it is a diagnostic, not a checkpoint rule.
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import json
 import sys
@@ -42,6 +41,7 @@ from d3dwa_bullet.learning.training.greedy_eval import GreedyEpisode, greedy_epi
 from d3dwa_bullet.learning.value_calibration import calibrate, calibrate_by_outcome
 from d3dwa_bullet.seed_dirs import seed_dirs
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
+from tools.entry import ToolParser, tool_main
 
 LAYOUT_SEED = UNSEEN_LAYOUT_SEED_BASE + 1000
 WORLDS = ("R1", "R2", "R3", *(f"{s}-style-s{LAYOUT_SEED}" for s in ("R1", "R2", "R3")))
@@ -229,8 +229,9 @@ def describe(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+@tool_main
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m tools.experiments.value_check")
+    ap = ToolParser(prog="python -m tools.experiments.value_check")
     ap.add_argument("directory", type=Path, help="a policy folder, or a folder of seed-<k>/")
     ap.add_argument("--json", action="store_true")
     ap.add_argument(

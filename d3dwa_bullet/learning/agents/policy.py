@@ -31,9 +31,14 @@ class Policy(Protocol):
 
 
 class DuelingGreedyPolicy:
-    """argmax of the advantage stream of a DuelingQNetwork, in numpy (a snapshot of its weights)."""
+    """argmax of the advantage stream of a DuelingQNetwork, in numpy (a snapshot of its weights).
 
-    def __init__(self, network: DuelingQNetwork) -> None:
+    Like the ONNX runner, it never chooses from values that are not numbers: an advantage
+    that comes out NaN or inf (a NaN in the observation, weights that overflow on it) is a
+    CheckpointError naming ``where`` (the checkpoint) and the observation."""
+
+    def __init__(self, network: DuelingQNetwork, where: str = "the policy") -> None:
+        self.where = where
         linears = [m for m in network.body if hasattr(m, "weight")] + [network.advantage]
         self._layers = [
             (
@@ -56,6 +61,12 @@ class DuelingGreedyPolicy:
             if i < last:
                 np.maximum(out, 0.0, out=out)
             x = out
+        if not np.isfinite(x).all():
+            shown = np.array2string(self._input, precision=3, max_line_width=10**6)
+            raise CheckpointError(
+                f"{self.where}: the policy's Q-values are NaN or inf for observation {shown}; "
+                "refusing to choose an action from them"
+            )
         return int(x.argmax())
 
 
@@ -70,10 +81,11 @@ class TabularGreedyPolicy:
         return int(self._greedy[self._discretisation.state_index(obs)])
 
 
-def greedy_policy(agent: Agent) -> Policy:
-    """A greedy snapshot of an in-memory agent (later training does not change it)."""
+def greedy_policy(agent: Agent, where: str = "the policy") -> Policy:
+    """A greedy snapshot of an in-memory agent (later training does not change it); where:
+    what a message names (the checkpoint it came from)."""
     if isinstance(agent, D3QNAgent):
-        return DuelingGreedyPolicy(agent.online)
+        return DuelingGreedyPolicy(agent.online, where)
     if isinstance(agent, DQDWAAgent):
         return TabularGreedyPolicy(agent)
     raise TypeError(f"greedy_policy: unsupported agent type {type(agent).__name__}")
@@ -99,7 +111,7 @@ def load_policy(
         reader=reader,
     )
     try:
-        policy = greedy_policy(agent)
+        policy = greedy_policy(agent, str(path))
     except TypeError as err:  # pragma: no cover - load_checkpoint only builds known agents
         raise CheckpointError(f"{path}: {err}") from err
     return policy, agent.actions, meta

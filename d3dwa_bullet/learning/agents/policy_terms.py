@@ -15,15 +15,16 @@ Pure: no torch, no onnxruntime (the ONNX runner imports this on a robot without 
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import CheckpointError
-from d3dwa_bullet.limits import MAX_DECISION_STEPS as DECISION_LIMIT
+from d3dwa_bullet.limits import MAX_DECISION_STEPS, is_decision_period
+from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.params import RECOVERY_KINDS
 
-MAX_DECISION_STEPS = int(DECISION_LIMIT.value)
-"""Longest decision period, control steps (its one home: ``limits.MAX_DECISION_STEPS``)."""
 DEFAULT_DECISION_STEPS = 1
 """The paper's agent: one decision every control step."""
 DEFAULT_RECOVERY = RECOVERY_KINDS[0]
@@ -40,10 +41,10 @@ def decision_period(value: object, where: str) -> int:
         number = value
     elif isinstance(value, str) and value.isascii() and value.isdigit() and len(value) <= 3:
         number = int(value)  # 3 digits reach MAX_DECISION_STEPS; int() of more may raise
-    if number is not None and 1 <= number <= MAX_DECISION_STEPS:
+    if number is not None and is_decision_period(number):
         return number
     raise CheckpointError(
-        f"{where} is {_shown(value)}, expected a whole number in [1, {MAX_DECISION_STEPS}] "
+        f"{where} is {_shown(value)}, expected a whole number in [1, {MAX_DECISION_STEPS.value}] "
         "(control steps each chosen action is held)"
     )
 
@@ -61,9 +62,15 @@ def trained_recovery(value: object, where: str) -> str:
 
 def checkpoint_terms(meta: Mapping[str, Any], where: str) -> tuple[int, str]:
     """(decision period, recovery) of a checkpoint's meta.json ``meta`` (its ``metadata``
-    block; absent values are the paper's). where: the meta.json file, for messages."""
-    extra = meta.get("metadata")
-    extra = extra if isinstance(extra, Mapping) else {}
+    block; absent values are the paper's). where: the meta.json file, for messages. A
+    ``metadata`` that is not a mapping is refused: read as empty, it would drive a held
+    policy every step without a word."""
+    extra = meta.get("metadata", {})
+    if not isinstance(extra, Mapping):
+        raise CheckpointError(
+            f"{where}: metadata is {_shown(extra)}, expected a mapping (it records the "
+            "policy's decision period and recovery layer)"
+        )
     return (
         decision_period(
             extra.get("decision_steps", DEFAULT_DECISION_STEPS),
@@ -80,3 +87,52 @@ def _shown(value: object) -> str:
     except ValueError:  # an int of more digits than Python will print
         return "an integer too long to show"
     return text if len(text) <= _SHOWN else f"{text[: _SHOWN - 3]}..."
+
+
+TERMS = ("decision_steps", "recovery", "observation")
+"""What a checkpoint's meta.json (``metadata``) and its run's config.json both record of the
+terms the policy is driven on; they must agree."""
+
+
+def folder_terms(folder: str | os.PathLike[str]) -> dict[str, object]:
+    """The terms a checkpoint folder's policy is driven on, {decision_steps, recovery,
+    observation (None when unrecorded)}, read from its meta.json and checked against its
+    config.json when it has one: CheckpointError, one line naming both files, the term and
+    both values, when they disagree or either is malformed."""
+    root = Path(folder)
+    meta_file, config_file = root / "meta.json", root / "config.json"
+    meta = load_json(meta_file, CheckpointError, "checkpoint meta.json")
+    if not isinstance(meta, Mapping):
+        raise CheckpointError(f"{meta_file}: expected a JSON object, got {type(meta).__name__}")
+    period, recovery = checkpoint_terms(meta, str(meta_file))
+    extra = meta.get("metadata", {})
+    terms: dict[str, object] = {
+        "decision_steps": period,
+        "recovery": recovery,
+        "observation": extra.get("observation"),
+    }
+    if not config_file.is_file():
+        return terms
+    config = load_json(config_file, CheckpointError, "training config.json")
+    if not isinstance(config, Mapping):
+        raise CheckpointError(f"{config_file}: expected a JSON object, got {type(config).__name__}")
+    recorded = {
+        "decision_steps": decision_period(
+            config.get("decision_steps", DEFAULT_DECISION_STEPS), f"{config_file}: decision_steps"
+        ),
+        "recovery": trained_recovery(
+            config.get("recovery", DEFAULT_RECOVERY), f"{config_file}: recovery"
+        ),
+        "observation": config.get("observation"),
+    }
+    for name in TERMS:
+        mine, theirs = terms[name], recorded[name]
+        if name == "observation" and (mine is None or theirs is None):
+            terms[name] = mine if theirs is None else theirs
+            continue
+        if mine != theirs:
+            raise CheckpointError(
+                f"{meta_file}: metadata.{name} is {_shown(mine)} but {config_file} says "
+                f"{_shown(theirs)}; a policy's files must agree on the terms it is driven on"
+            )
+    return terms

@@ -1,14 +1,13 @@
-"""The configuration of one training run: ``TrainConfig``, read from YAML, and what it builds.
+"""The configuration of one training run: ``TrainConfig``'s fields, read from YAML, and what it builds.
 
-A ``TrainConfig`` is frozen and validated on construction (ConfigError names the field and
-the value); ``to_dict`` / ``from_dict`` round-trip it through JSON, so the ``config.json``
+A ``TrainConfig`` is frozen and checked whole on construction (``config_checks``: ConfigError
+names the field and the value; a file's name comes first when it is loaded); ``to_dict`` / ``from_dict`` round-trip it through JSON, so the ``config.json``
 saved beside every checkpoint reloads with ``load_train_config``. ``make_env`` and
 ``make_agent`` build the training env and a fresh agent of a config.
 """
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields, replace
@@ -18,34 +17,27 @@ from typing import Any
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
-from d3dwa_bullet.learning.agents.replay import check_replay_memory
 from d3dwa_bullet.learning.env import D3DWAEnv
-from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, resolve_world
-from d3dwa_bullet.limits import MAX_TOTAL_STEPS, check_processes, check_weights
+from d3dwa_bullet.learning.tasks import TRAIN_WORLDS
+from d3dwa_bullet.learning.training.config_checks import (  # re-exported: callers import them here
+    CURRICULA,
+    KEEP,
+    VECTOR_MODES,
+    as_tuple,
+    check_fields,
+    check_run_limits,
+    check_scalar_types,
+    check_selection_rule,
+    check_validation_world,
+)
 from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.method_specs import LEARNED, method_observation
-from d3dwa_bullet.params import RECOVERY_KINDS, RewardParams, recovery_params
+from d3dwa_bullet.params import RewardParams, recovery_params
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.progress import check_observation_kind, observation_layout
-from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
-from d3dwa_bullet.world.registry import world_names
 
 #: Reward scale by agent family: the D3QN uses the baseline magnitudes / 100 (paper).
 DEFAULT_REWARD_SCALE = {"d3qn": 0.01, "dqdwa": 1.0}
-CURRICULA = ("uniform", "adaptive")
-KEEP = ("best", "final")
-VECTOR_MODES = ("async", "sync")
-
-
-def _tuple(value: Any, name: str, kind: type = str) -> tuple:
-    if isinstance(value, str | int | float):
-        value = [value]
-    try:
-        return tuple(kind(v) for v in value)
-    except (TypeError, ValueError) as err:
-        raise ConfigError(
-            f"TrainConfig.{name}: expected a list of {kind.__name__}, got {value!r}"
-        ) from err
 
 
 @dataclass(frozen=True)
@@ -138,13 +130,13 @@ class TrainConfig:
             )
         set_ = lambda name, value: object.__setattr__(self, name, value)  # noqa: E731
         for name in ("worlds", "generators", "noise", "eval_worlds"):
-            set_(name, _tuple(getattr(self, name), name))
-        set_("noise_probs", _tuple(self.noise_probs, "noise_probs", float))
-        set_("eval_seeds", _tuple(self.eval_seeds, "eval_seeds", int))
+            set_(name, as_tuple(getattr(self, name), name))
+        set_("noise_probs", as_tuple(self.noise_probs, "noise_probs", float))
+        set_("eval_seeds", as_tuple(self.eval_seeds, "eval_seeds", int))
         base = LEARNED[self.method]
         for name in ("weights", "horizons"):
             value = getattr(self, name)
-            set_(name, getattr(base, name) if value is None else _tuple(value, name, float))
+            set_(name, getattr(base, name) if value is None else as_tuple(value, name, float))
         ActionSet(self.weights, self.horizons)  # type: ignore[arg-type]  # ConfigError if bad
         family = self.family
         agent_cls = D3QNConfig if family == "d3qn" else DQDWAConfig
@@ -169,55 +161,7 @@ class TrainConfig:
         _ = self.reward_params  # ConfigError naming stall_penalty / stall_after if out of range
         if type(self.n_envs) is int and self.n_envs == 0:
             set_("n_envs", os.cpu_count() or 1)
-        checks: list[tuple[str, bool, str]] = [
-            ("total_steps", self.total_steps >= 1, ">= 1"),
-            ("decision_steps", 1 <= self.decision_steps <= 100, "in [1, 100]"),
-            ("generator_prob", 0.0 <= self.generator_prob <= 1.0, "in [0, 1]"),
-            ("route_start_prob", 0.0 <= self.route_start_prob <= 1.0, "in [0, 1]"),
-            ("route_start_span", 0.0 < self.route_start_span < 1.0, "in (0, 1)"),
-            ("curriculum", self.curriculum in CURRICULA, f"one of {CURRICULA}"),
-            ("curriculum_window", self.curriculum_window >= 1, ">= 1"),
-            ("curriculum_floor", self.curriculum_floor > 0, "> 0"),
-            (
-                "reward_scale",
-                math.isfinite(float(self.reward_scale)) and float(self.reward_scale) > 0,  # type: ignore[arg-type]
-                "a finite number > 0",
-            ),
-            ("eval_every", self.eval_every >= 0, ">= 0"),
-            ("eval_seeds", bool(self.eval_seeds), "non-empty"),
-            ("checkpoint_every", self.checkpoint_every >= 0, ">= 0"),
-            ("log_every", self.log_every >= 1, ">= 1"),
-            ("keep", self.keep in KEEP, f"one of {KEEP}"),
-            ("seed", self.seed >= 0, ">= 0"),
-            (
-                "n_envs",
-                type(self.n_envs) is int and self.n_envs >= 1,
-                "a whole number >= 1 (0: one per core)",
-            ),
-            ("vector", self.vector in VECTOR_MODES, f"one of {VECTOR_MODES}"),
-            ("recovery", self.recovery in RECOVERY_KINDS, f"one of {RECOVERY_KINDS}"),
-            ("noise", bool(self.noise), "non-empty ('none' for noise-free)"),
-        ]
-        for name, ok, rule in checks:
-            if not ok:
-                raise ConfigError(f"TrainConfig.{name} must be {rule}, got {getattr(self, name)!r}")
-        if not self.worlds and not self.generators:
-            raise ConfigError("TrainConfig: give at least one training world or generator style")
-        if self.noise_probs and len(self.noise_probs) != len(self.noise):
-            raise ConfigError(
-                f"TrainConfig.noise_probs: {len(self.noise_probs)} weights for "
-                f"{len(self.noise)} noise profiles {list(self.noise)}"
-            )
-        if self.noise_probs:
-            check_weights("TrainConfig.noise_probs", self.noise_probs)
-        if self.keep == "best" and self.eval_every == 0:
-            raise ConfigError("TrainConfig.keep = 'best' needs eval_every > 0")
-        for w in self.worlds:
-            resolve_world(w, False, "TrainConfig.worlds")
-        for w in self.eval_worlds:
-            resolve_world(w, False, "TrainConfig.eval_worlds")
-        if self.eval_every and not self.eval_worlds:
-            raise ConfigError("TrainConfig.eval_worlds: empty, but eval_every > 0")
+        check_fields(self)
 
     @property
     def family(self) -> str:
@@ -283,26 +227,6 @@ class TrainConfig:
             raise ConfigError(f"{source}: bad field value ({err})") from err
 
 
-def check_scalar_types(cls: type, data: Mapping[str, Any], source: str, prefix: str = "") -> None:
-    """ConfigError naming the field and value when a number, a whole number or a word is
-    given as something else (``lr: fast``), before any comparison can fail obscurely."""
-    for f in fields(cls):
-        if f.name not in data or data[f.name] is None:
-            continue
-        value, default = data[f.name], f.default
-        if isinstance(default, bool) or not isinstance(default, int | float | str):
-            continue
-        if isinstance(default, str):
-            ok, kind = isinstance(value, str), "a word"
-        elif isinstance(default, int) and f.type in ("int", int):
-            ok, kind = isinstance(value, int) and not isinstance(value, bool), "a whole number"
-        else:
-            ok = isinstance(value, int | float) and not isinstance(value, bool)
-            kind = "a number"
-        if not ok:
-            raise ConfigError(f"{source}: field '{prefix}{f.name}' must be {kind}, got {value!r}")
-
-
 def load_train_config(path: str | os.PathLike[str], **overrides: Any) -> TrainConfig:
     """A TrainConfig from a YAML (or JSON) file, with keyword overrides (None = keep)."""
     p = Path(path)
@@ -321,44 +245,6 @@ def load_train_config(path: str | os.PathLike[str], **overrides: Any) -> TrainCo
                 )
             data[key] = value
     return TrainConfig.from_dict(data, str(p))
-
-
-def check_run_limits(config: TrainConfig) -> None:
-    """ConfigError when this machine cannot run ``config``: more worker processes
-    (``n_envs``) than :func:`d3dwa_bullet.limits.max_processes`, a replay buffer over
-    the memory bound, or more than ``MAX_TOTAL_STEPS`` steps. Checked when a run starts, before any process or buffer exists, not
-    when a config loads (a config.json written on a larger machine stays readable)."""
-    check_processes("n_envs", config.n_envs)
-    MAX_TOTAL_STEPS.check("total_steps", config.total_steps, "steps")
-    if isinstance(config.agent, D3QNConfig):
-        check_replay_memory(config.agent.buffer_size, len(config.obs_layout), "agent.buffer_size")
-
-
-def check_selection_rule(config: TrainConfig) -> None:
-    """ConfigError unless the config's ``keep: best`` selects on training material that
-    no results table reports (see ``TrainConfig.eval_worlds``). Checked when a run starts,
-    not when a config loads: the configs shipped beside earlier policies stay readable."""
-    if config.keep == "best":
-        for name in config.eval_worlds:
-            check_validation_world(name)
-
-
-def check_validation_world(name: str) -> None:
-    """ConfigError unless ``name`` may select a checkpoint (``keep: best``)."""
-    text = str(name)
-    shipped = {n.upper() for n in world_names()}
-    style, sep, seed = text.rpartition("-s")
-    if text.upper() in shipped or Path(text).stem.upper() in shipped:
-        why = f"{text!r} is a shipped world, which the results tables report"
-    elif sep and seed.isdigit() and int(seed) >= UNSEEN_LAYOUT_SEED_BASE:
-        why = f"{text!r} is an unseen layout (seed >= 2^31), which the noise sweep reports"
-    else:
-        return
-    raise ConfigError(
-        f"TrainConfig.eval_worlds: keep: best picks the shipped checkpoint by these worlds, so "
-        f"they must be training material no table reports; {why}. Use generated layouts "
-        "such as R1-style-s1 (seeds below 2^31), or keep: final"
-    )
 
 
 def make_env(
@@ -398,3 +284,19 @@ def make_agent(config: TrainConfig) -> D3QNAgent | DQDWAAgent:
     if config.family == "dqdwa":
         return DQDWAAgent(config.actions, config.agent)  # type: ignore[arg-type]
     return D3QNAgent(config.actions, config.agent, config.obs_layout)  # type: ignore[arg-type]
+
+
+__all__ = [
+    "CURRICULA",
+    "DEFAULT_REWARD_SCALE",
+    "KEEP",
+    "VECTOR_MODES",
+    "TrainConfig",
+    "check_run_limits",
+    "check_scalar_types",
+    "check_selection_rule",
+    "check_validation_world",
+    "load_train_config",
+    "make_agent",
+    "make_env",
+]

@@ -1,0 +1,73 @@
+"""How each typed column of results.csv is read, and the one track a directory holds.
+
+A NaN or inf where a table averages, or an outcome no table counts, is refused, not counted
+(``TYPED_COLUMNS``); so is a hand-edited ``recovery`` column that mixes tracks or names no
+recovery layer (``check_one_track``): a results directory is one track (docs/design.md#recovery),
+and pooling two would report a table neither track ran.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from d3dwa_bullet.episode_metrics import OUTCOMES
+from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.limits import MAX_NOTE_VALUE_CHARS, cut_text
+from d3dwa_bullet.params import RECOVERY_KINDS
+
+
+def _checked(parse: Callable[[str], Any], ok: Callable[[Any], bool]) -> Callable[[str], Any]:
+    """parse, refusing (ValueError) a value that ok says no to."""
+
+    def read(text: str) -> Any:
+        if not ok(value := parse(text)):
+            raise ValueError(text)
+        return value
+
+    return read
+
+
+_COUNT = (_checked(int, lambda v: v >= 0), "a whole number >= 0")
+TYPED_COLUMNS: dict[str, tuple[Callable[[str], Any], str]] = {
+    "seed": _COUNT,
+    "policy_seed": (
+        _checked(lambda t: None if t == "" else int(t), lambda v: v is None or v >= 0),
+        "empty or a whole number >= 0",
+    ),
+    "outcome": (_checked(str, lambda v: v in OUTCOMES), f"one of {', '.join(OUTCOMES)}"),
+    **dict.fromkeys(
+        ("time_s", "tl_m", "pd_rad"),
+        (_checked(float, lambda v: math.isfinite(v) and v >= 0), "a finite number >= 0"),
+    ),
+    "min_clearance_m": (
+        _checked(float, lambda v: not math.isnan(v) and v > -math.inf),
+        "a number, or inf for a world without obstacles",
+    ),
+    "steps": _COUNT,
+}
+"""How read_results reads each typed column, and what the message says it must be: a NaN
+or inf where a table averages, or an outcome no table counts, is refused, not counted."""
+
+
+def check_one_track(path: Path, rows: Sequence[Mapping[str, Any]], column: str) -> None:
+    """ResultsError (one line: file, line, value) unless every row's ``column`` names one
+    and the same recovery layer of RECOVERY_KINDS (rows without it read as "none")."""
+    first = None
+    for line, row in enumerate(rows, start=2):
+        value = row[column]
+        shown = cut_text(repr(value), MAX_NOTE_VALUE_CHARS)
+        if value not in RECOVERY_KINDS:
+            raise ResultsError(
+                f"{path}: line {line}: column {column!r} is {shown}, not one of "
+                f"{', '.join(RECOVERY_KINDS)}"
+            )
+        if first is None:
+            first = (line, value)
+        elif value != first[1]:
+            raise ResultsError(
+                f"{path}: line {line}: column {column!r} is {shown} but line {first[0]} is "
+                f"{first[1]!r}; one results directory holds one track, never pooled"
+            )

@@ -1,0 +1,86 @@
+"""A key given twice is refused by the one loader, for every file the project reads: YAML
+would keep the last value silently, so a field repeated at the end of a training config
+trained on it with exit 0 (issue 42, class 1). One line names the file, the key and its line."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from d3dwa_bullet.cli.app import main
+from d3dwa_bullet.errors import CheckpointError, ConfigError, ProfileError, WorldFormatError
+from d3dwa_bullet.learning.training.config import load_train_config
+from d3dwa_bullet.loading import load_json, parse_yaml
+from d3dwa_bullet.resources import configs_dir, profiles_dir
+from d3dwa_bullet.world.registry import load_world
+from randomization.profiles import load_profile
+from tests.conftest import ONE_SECOND_WORLD
+
+
+def _appended(text: str, line: str, path: Path) -> Path:
+    path.write_text(text.rstrip("\n") + "\n" + line + "\n")
+    return path
+
+
+def _one_line(err: pytest.ExceptionInfo, *names: object) -> None:
+    message = str(err.value)
+    assert "\n" not in message, message
+    for name in names:
+        assert str(name) in message, (name, message)
+
+
+def test_a_training_config_repeating_a_field_is_refused(tmp_path):
+    text = (configs_dir() / "d3dwa.yaml").read_text()
+    count = len(text.rstrip("\n").splitlines()) + 1
+    path = _appended(text, "decision_steps: 1", tmp_path / "twice.yaml")
+    with pytest.raises(ConfigError) as err:
+        load_train_config(path)
+    _one_line(err, path, "'decision_steps'", f"line {count}", "twice")
+
+
+def test_the_cli_says_it_in_one_line_with_status_2(tmp_path, capsys):
+    text = (configs_dir() / "dqdwa.yaml").read_text()
+    path = _appended(text, "total_steps: 3", tmp_path / "twice.yaml")
+    assert main(["train", "--config", str(path), "--out", str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "'total_steps'" in err and str(path) in err, err
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_world_file_repeating_a_key_is_refused(tmp_path):
+    text = yaml.safe_dump(ONE_SECOND_WORLD)
+    path = _appended(text, "time_limit: 900", tmp_path / "w.yaml")
+    with pytest.raises(WorldFormatError) as err:
+        load_world(path)
+    _one_line(err, path, "'time_limit'", "twice")
+
+
+def test_a_noise_profile_repeating_a_key_is_refused(tmp_path):
+    text = (profiles_dir() / "real.yaml").read_text()
+    path = _appended(text, "name: other", tmp_path / "p.yaml")
+    with pytest.raises(ProfileError) as err:
+        load_profile(path)
+    _one_line(err, path, "'name'", "twice")
+
+
+def test_nested_repeats_and_json_objects_are_refused_too(tmp_path):
+    with pytest.raises(ConfigError) as err:
+        parse_yaml("agent:\n  lr: 0.1\n  gamma: 0.9\n  lr: 1.0\n", ConfigError, "c.yaml")
+    _one_line(err, "c.yaml", "'lr'", "line 4", "first on line 2")
+    meta = tmp_path / "meta.json"
+    meta.write_text('{"metadata": {"decision_steps": 10, "decision_steps": 1}}')
+    with pytest.raises(CheckpointError) as err:
+        load_json(meta, CheckpointError)
+    _one_line(err, meta, "'decision_steps'", "twice")
+
+
+def test_merge_keys_and_distinct_keys_still_load():
+    text = "base: &b {x: 1, y: 2}\nother:\n  <<: *b\n  x: 3\n1: a\n'1': b\n"
+    assert parse_yaml(text, ConfigError, "m.yaml") == {
+        "base": {"x": 1, "y": 2},
+        "other": {"x": 3, "y": 2},
+        1: "a",
+        "1": "b",
+    }
