@@ -17,7 +17,6 @@ interval over training seeds (``d3dwa eval``'s statistic).
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from collections import defaultdict
@@ -31,6 +30,7 @@ from d3dwa_bullet.evaluation.seed_stats import mean_interval
 from d3dwa_bullet.evaluation.seed_tables import success_scores
 from d3dwa_bullet.evaluation.sweep import profile_of
 from d3dwa_bullet.method_specs import FIXED
+from tools.entry import ToolParser, tool_main
 
 DEFAULT_SWITCH = {"none": "d3dwa", "paper": "d3dwa", "real": "d3dwa", "harsh": "dwa3"}
 SWITCH = "headroom"
@@ -100,16 +100,14 @@ def markdown(records: Sequence[Mapping[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+@tool_main
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="headroom", description=__doc__.split("\n")[0])
+    parser = ToolParser(prog="headroom", description=__doc__.split("\n")[0])
     parser.add_argument("sweep", type=Path, help="a `d3dwa sweep` directory with named profiles")
     parser.add_argument("--switch", default=",".join(f"{p}={m}" for p, m in DEFAULT_SWITCH.items()),
                         help="PROFILE=METHOD,... (default: %(default)s)")  # fmt: skip
     parser.add_argument("--json", action="store_true")
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:
-        return int(exc.code or 0)
+    args = parser.parse_args(argv)
     try:
         records = headroom(args.sweep, parse_switch(args.switch))
     except D3DWAError as exc:

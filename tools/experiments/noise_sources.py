@@ -17,7 +17,6 @@ that ended in a fallback storm (:mod:`d3dwa_bullet.evaluation.failures`).
 
 from __future__ import annotations
 
-import argparse
 import copy
 import json
 import sys
@@ -36,6 +35,7 @@ from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.resources import profiles_dir
 from randomization.profiles import load_profile
+from tools.entry import ToolParser, tool_main
 
 #: A source: the (group, fields) of a profile's params it owns; ``None`` is the whole group.
 SOURCES: dict[str, tuple[str, tuple[str, ...] | None]] = {
@@ -147,8 +147,9 @@ def markdown(recs: Sequence[Mapping[str, Any]], base: str = "harsh") -> str:
     return "\n".join(lines) + "\n"
 
 
+@tool_main
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="noise_sources", description=__doc__.split("\n")[0])
+    parser = ToolParser(prog="noise_sources", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
     w = sub.add_parser("write", help="write the one-source-removed and one-source-alone profiles")
     w.add_argument("--base", default="harsh", help="the noisy profile (name or YAML)")
@@ -158,10 +159,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     t.add_argument("sweep", type=Path)
     t.add_argument("--base", default="harsh")
     t.add_argument("--json", action="store_true")
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:
-        return int(exc.code or 0)
+    args = parser.parse_args(argv)
     try:
         if args.command == "write":
             for path in write(args.base, args.off, args.out):

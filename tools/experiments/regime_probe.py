@@ -13,7 +13,6 @@ Wilson 95 % interval. 0.5 is chance.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from collections.abc import Sequence
@@ -27,6 +26,7 @@ from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.jobs import log_name
 from d3dwa_bullet.evaluation.results import job_rows, load_log, row_key
 from d3dwa_bullet.evaluation.stats import wilson_interval
+from tools.entry import ToolParser, tool_main
 
 EPOCHS = 60
 HIDDEN = 64
@@ -97,17 +97,15 @@ def accuracy(
             "train": len(ytr)}  # fmt: skip
 
 
+@tool_main
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="regime_probe", description=__doc__.split("\n")[0])
+    parser = ToolParser(prog="regime_probe", description=__doc__.split("\n")[0])
     parser.add_argument("sweep", type=Path)
     parser.add_argument("--labels", default="none,harsh", help="two noise labels of the rows")
     parser.add_argument("--history", type=int, default=10, help="steps in the long input")
     parser.add_argument("--stride", type=int, default=5, help="control steps between windows")
     parser.add_argument("--json", action="store_true")
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:
-        return int(exc.code or 0)
+    args = parser.parse_args(argv)
     labels = args.labels.split(",")
     if len(labels) != 2 or not 2 <= args.history <= 100 or not 1 <= args.stride <= 100:
         print("regime_probe: --labels takes two labels, --history 2-100, --stride 1-100",

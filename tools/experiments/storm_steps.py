@@ -16,7 +16,6 @@ planned steps.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from collections import defaultdict
@@ -40,6 +39,7 @@ from d3dwa_bullet.planning.planner import PlanResult
 from d3dwa_bullet.resources import policies_dir
 from d3dwa_bullet.world.generator import generate_world
 from d3dwa_bullet.world.registry import load_world
+from tools.entry import ToolParser, tool_main
 
 PHANTOM_M = 0.10
 STORM_STEPS = 5
@@ -128,17 +128,15 @@ def summarise(episodes: Sequence[dict[str, np.ndarray]]) -> dict[str, Any]:
             "before_storm": stats(before), "fallback_steps": stats(fallback_steps)}  # fmt: skip
 
 
+@tool_main
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="storm_steps", description=__doc__.split("\n")[0])
+    parser = ToolParser(prog="storm_steps", description=__doc__.split("\n")[0])
     parser.add_argument("sweep", type=Path)
     parser.add_argument("--noise", required=True, help="the rows' noise label (profile)")
     parser.add_argument("--methods", required=True, help="comma list")
     parser.add_argument("--policy-seeds", default="0", help="training seeds, comma list")
     parser.add_argument("--json", action="store_true")
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:
-        return int(exc.code or 0)
+    args = parser.parse_args(argv)
     try:
         seeds = {int(s) for s in args.policy_seeds.split(",")}
     except ValueError:
