@@ -135,7 +135,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         recovery = config.recovery_name
         table = eval_markdown(
             rows, methods, names, seeds, args.noise, recovery=recovery, renamed=renamed,
-            policy_notes=notes,
+            policy_notes=notes, scan_filter=config.scan_filter,
         )  # fmt: skip
         atomic_write_text(out / "table.md", table)
         atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names))

@@ -40,7 +40,7 @@ from d3dwa_bullet.evaluation.sweep import (
     sweep_figures,
     sweep_markdown,
 )
-from d3dwa_bullet.evaluation.tables import paper_table, run_notes
+from d3dwa_bullet.evaluation.tables import paper_table, run_notes, scan_filter_of
 from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text
 from d3dwa_bullet.limits import MAX_NOTE_CHARS, MAX_NOTE_VALUE_CHARS, cut_text
 from d3dwa_bullet.method_specs import method_label
@@ -74,6 +74,7 @@ def eval_markdown(
     recovery: str = "none",
     renamed: Mapping[str, str] | None = None,
     policy_notes: Sequence[str] = (),
+    scan_filter: str = "none",
 ) -> str:
     """The evaluation page of ``d3dwa eval`` (table.md): success and time over training
     seeds with their intervals, then the paper's layout pooled over every episode. With a
@@ -88,7 +89,7 @@ def eval_markdown(
     )
     return (
         f"# {title or 'Evaluation: ' + ', '.join(worlds)}\n\n"
-        f"{run_notes(recovery, policy_notes)}"
+        f"{run_notes(recovery, policy_notes, scan_filter)}"
         f"Noise profile: `{noise}`; evaluation seeds: {span}.\n\n"
         f"{keys}"
         "## Over training seeds\n\n"
@@ -180,8 +181,9 @@ def write_table_page(
     dest.parent.mkdir(parents=True, exist_ok=True)
     notes = policy_notes(out, meta)
     page = eval_markdown(
-        rows, methods, worlds, seeds, noise, title, recovery_of(out), policy_notes=notes
-    )
+        rows, methods, worlds, seeds, noise, title, recovery_of(out), policy_notes=notes,
+        scan_filter=scan_filter_of(meta),
+    )  # fmt: skip
     page += f"\nFrom `{out / 'results.csv'}` ({len(rows)} episodes), d3dwa-bullet {__version__}.\n"
     atomic_write_text(dest, page)
     return dest
@@ -233,8 +235,9 @@ def _eval_body(out: Path, meta: dict[str, Any], rows: list[dict], partial: bool)
     recovery = meta.get("settings", {}).get("recovery", "none")
     notes = policy_notes(out, meta)
     body = eval_markdown(
-        rows, methods, worlds, seeds, noise, f"Tables{note}", recovery, policy_notes=notes
-    )
+        rows, methods, worlds, seeds, noise, f"Tables{note}", recovery, policy_notes=notes,
+        scan_filter=scan_filter_of(meta),
+    )  # fmt: skip
     body = "#" + body.replace("\n#", "\n##")  # one level down inside the page
     sources = meta["settings"].get("world_sources", worlds)
     loaded = []
@@ -299,7 +302,7 @@ def _sweep_body(out: Path, meta: dict[str, Any], partial: bool) -> str:
     lines.append(f"\n## Results{note}\n\n")
     by_name = {p.stem: p for p in figures}
     saved = meta["settings"]  # as written: it also holds what SweepSettings does not
-    tables = run_notes(saved.get("recovery", "none"), policy_notes(out, meta))
+    tables = run_notes(saved.get("recovery", "none"), policy_notes(out, meta), scan_filter_of(meta))
     tables += sweep_markdown(rows, settings)
     # Put each axis's figure above its table.
     for name in [*settings.axes, "profiles"]:

@@ -300,6 +300,6 @@ def run_sweep(
         if complete and figures:
             sweep_figures(rows, settings, out / "figures")
         if complete:
-            page = "# Noise sweep\n\n" + run_notes(config.recovery_name, notes)
+            page = "# Noise sweep\n\n" + run_notes(config.recovery_name, notes, config.scan_filter)
             atomic_write_text(out / "sweep.md", page + sweep_markdown(rows, settings))
     return rows, complete

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -102,12 +102,27 @@ def series_table(series: Series, header: Sequence[Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run_notes(recovery: str, policy_notes: Sequence[str] = ()) -> str:
+def run_notes(recovery: str, policy_notes: Sequence[str] = (), scan_filter: str = "none") -> str:
     """The lines a results page opens with: the recovery layer of a recovery-track directory
-    (none on the paper track), then the config of each policy brought with ``--policy``
-    (``policy_config``)."""
+    (none on the paper track), the scan filter (none on the paper's stack), then the config of
+    each policy brought with ``--policy`` (``policy_config``)."""
     layer = (
         f"**Recovery layer `{recovery}`** (beyond the paper: progress checker and recovery "
         "behaviours around every method, docs/design.md#recovery).\n\n"
     )
-    return (layer if recovery != "none" else "") + "".join(f"{n}\n\n" for n in policy_notes)
+    cleaned = (
+        f"**Scan filter `{scan_filter}`** (beyond the paper: every method's scan filtered "
+        "before the observation and the planner, docs/design.md#scan-filter).\n\n"
+    )
+    return (
+        (layer if recovery != "none" else "")
+        + (cleaned if scan_filter != "none" else "")
+        + "".join(f"{n}\n\n" for n in policy_notes)
+    )
+
+
+def scan_filter_of(meta: Mapping[str, Any]) -> str:
+    """The scan filter a results directory's episodes ran with (its meta.json ``config``)."""
+    config = meta.get("config")
+    value = config.get("scan_filter", "none") if isinstance(config, Mapping) else "none"
+    return value if isinstance(value, str) else "none"

@@ -143,3 +143,16 @@ def test_env_takes_the_recovery_layer():
     env.close()
     with pytest.raises(ConfigError, match="unknown recovery 'bogus'"):
         gym.make("d3dwa_bullet/D3DWA-v0", recovery="bogus")
+
+
+def test_a_results_directory_holds_one_scan_filter(capsys, tmp_path, one_second_world):
+    out = tmp_path / "filtered"
+    common = ["--worlds", one_second_world, "--methods", "dwa3", "--workers", "1", "--out", out]
+    assert run(capsys, "eval", *common, "--scan-filter", "speckle+median")[0] == 0
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["config"]["scan_filter"] == "speckle+median"
+    assert "**Scan filter `speckle+median`**" in (out / "table.md").read_text()
+    line = refused(capsys, "eval", *common)  # resumed without the filter: another config
+    assert "scan_filter 'speckle+median' there, 'none' here" in line
+    line = refused(capsys, "eval", *common, "--scan-filter", "mean")
+    assert "--scan-filter 'mean': choose one of none, median, speckle, speckle+median" in line

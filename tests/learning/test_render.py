@@ -247,8 +247,8 @@ def test_human_mode_opens_the_gui_and_paces_steps(monkeypatch, gui_modes):
         sleeps.append(seconds)
         clock[0] += seconds
 
-    monkeypatch.setattr("d3dwa_bullet.learning.env.time.monotonic", lambda: clock[0])
-    monkeypatch.setattr("d3dwa_bullet.learning.env.time.sleep", fake_sleep)
+    monkeypatch.setattr("d3dwa_bullet.learning.render.time.monotonic", lambda: clock[0])
+    monkeypatch.setattr("d3dwa_bullet.learning.render.time.sleep", fake_sleep)
     env = D3DWAEnv(worlds=(WORLD,), render_mode="human")
     env.reset(seed=0)
     assert gui_modes == [pybullet.GUI]
