@@ -49,7 +49,7 @@ def test_observation_defaults_to_the_methods_kind_and_reward_to_the_papers() -> 
         ({"method": "dqdwa", "observation": "progress"}, "reads the 'paper' observation"),
         ({"stall_penalty": 0.5}, r"TrainConfig\.stall_penalty must be a number <= 0, got 0.5"),
         ({"stall_after": -1.0}, r"TrainConfig\.stall_after must be"),
-        ({"stall_penalty": "big"}, "field 'stall_penalty' must be a number"),
+        ({"stall_penalty": "big"}, "field 'stall_penalty' must be a finite number"),
     ],
 )
 def test_bad_observation_and_stall_fields_are_refused(tmp_path: Path, changes, match) -> None:

@@ -147,7 +147,10 @@ def test_one_episode_of_a_folder_of_seeds_drives_its_first_seed(tmp_path: Path) 
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        ("method: d3dwa\nagent:\n  lr: fast\n", "field 'agent.lr' must be a number, got 'fast'"),
+        (
+            "method: d3dwa\nagent:\n  lr: fast\n",
+            "field 'agent.lr' must be a finite number, got 'fast'",
+        ),
         ("- 1\n- 2\n", "expected a mapping of TrainConfig fields"),
         ("total_steps: many\n", "field 'total_steps' must be a whole number, got 'many'"),
         ("method: d3dwa\nagent: 3\n", "field 'agent' must be a mapping"),
