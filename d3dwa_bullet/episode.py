@@ -175,9 +175,9 @@ class Episode:
         the last observe(): what the stall penalty of the reward reads."""
         self.last_plan = None
         self.recovery = make_recovery(config)
+        """The recovery layer around the controller (None on the paper's stack)."""
         self.scan_filter = ScanFilter(config.scan_filter)
         """The scan filter chain (per episode: its state starts empty)."""
-        """The recovery layer around the controller (None on the paper's stack)."""
         self.last_recovery: RecoveryCommand | None = None
         """What the recovery layer drove at the last act() (None: the planner drove)."""
 
