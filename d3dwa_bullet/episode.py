@@ -20,8 +20,9 @@ from d3dwa_bullet.episode_metrics import body_clearance, posture_displacement, t
 from d3dwa_bullet.params import PROGRESS_RADIUS
 from d3dwa_bullet.planning.controller import Controller
 from d3dwa_bullet.planning.observation import build_observation, goal_in_body
+from d3dwa_bullet.planning.observation_kinds import make_observer, observation_layout
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult, plan
-from d3dwa_bullet.planning.progress import NoProgressClock, make_observer, observation_layout
+from d3dwa_bullet.planning.progress import NoProgressClock
 from d3dwa_bullet.planning.recovery import Recovery, RecoveryCommand
 from d3dwa_bullet.planning.scan_filter import ScanFilter
 from d3dwa_bullet.sim.noise import NoiseModel

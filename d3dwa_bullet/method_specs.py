@@ -50,11 +50,14 @@ LEARNED: dict[str, ActionSet] = {
     "d3dwa-weights": ACTIONS_WEIGHTS_ONLY,
     "d3dwa": ACTIONS_FULL,
     "d3dwa-dr": ACTIONS_FULL,
+    "d3dwa-history-dr": ACTIONS_FULL,
 }
 #: The observation kind a learned method's policy reads when it is not the paper's 12-d state
-#: (docs/design.md#progress-observation). Every registered method reads the paper's since the
-#: progress-aware methods, which shipped nothing, left the registry (issue 41).
-OBSERVATIONS: dict[str, str] = {}
+#: (``planning.observation_kinds``). ``d3dwa-history-dr``, beyond the paper and beside
+#: ``d3dwa-dr`` (never instead of it), reads the last 1 s of states and its previous action
+#: (docs/design.md#history-observation). The progress-aware methods, which shipped nothing,
+#: left the registry (issue 41); their kind stays for the env.
+OBSERVATIONS: dict[str, str] = {"d3dwa-history-dr": "history"}
 #: Learned methods whose policy is a network, so exports to ONNX (dqdwa's is a Q-table).
 ONNX_METHODS = tuple(m for m in LEARNED if m != "dqdwa")
 #: The methods by name, in table order; a reference method also takes any other decision
@@ -81,6 +84,7 @@ LABELS = {
     "d3dwa-weights": "D3DWA (w/o horizon)",
     "d3dwa": "D3DWA",
     "d3dwa-dr": "D3DWA (randomised)",
+    "d3dwa-history-dr": "D3DWA (randomised, 1 s history)",
 }
 
 

@@ -126,9 +126,10 @@ the one number the recovery layer, the progress-aware observation and the stall 
 PROGRESS_WINDOW = 10.0
 """Nav2's movement time allowance, s: the recovery layer's window, and what the
 progress-aware observation divides the time without progress by."""
-OBSERVATION_KINDS = ("paper", "progress")
-"""What a policy reads: the paper's 12-d state, or that state and five progress entries
-(docs/design.md#progress-observation)."""
+OBSERVATION_KINDS = ("paper", "progress", "history")
+"""What a policy reads: the paper's 12-d state, that state and five progress entries
+(docs/design.md#progress-observation), or that state over the last 10 control steps and the
+previous action (docs/design.md#history-observation); ``planning.observation_kinds``."""
 
 
 @dataclass(frozen=True)

@@ -56,8 +56,8 @@ from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.geometry import wrap_angle_modular
 from d3dwa_bullet.planning.controller import Controller
 from d3dwa_bullet.planning.observation import goal_in_body
+from d3dwa_bullet.planning.observation_kinds import Observer, make_observer, observation_layout
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult
-from d3dwa_bullet.planning.progress import ProgressObserver, make_observer, observation_layout
 from d3dwa_bullet.planning.recovery import RecoveryCommand
 from d3dwa_bullet.planning.scan_filter import ScanFilter
 from d3dwa_bullet.sim.estimator import EstimatorConfig, PoseEstimator
@@ -86,7 +86,7 @@ def decide(
     points: np.ndarray,
     controller: Controller,
     config: EpisodeConfig = EpisodeConfig(),
-    progress: ProgressObserver | None = None,
+    progress: Observer | None = None,
     t_ns: int = 0,
 ) -> tuple[np.ndarray, int, PlannerAction, PlanResult]:
     """One control decision from an estimate: what ``Episode.observe`` + ``act`` compute.

@@ -82,18 +82,26 @@ from d3dwa_bullet.learning.reward import reward
 from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, TaskSampler, check_reset_options
 from d3dwa_bullet.params import RecoveryParams, RewardParams, recovery_params
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
+from d3dwa_bullet.planning.observation_kinds import (
+    check_observation_kind,
+    observation_layout,
+    observation_low,
+)
 from d3dwa_bullet.planning.planner import PlannerAction
-from d3dwa_bullet.planning.progress import check_observation_kind, observation_layout
 from d3dwa_bullet.timing import StageClock, perf
 from d3dwa_bullet.world.model import World
 
 
-def observation_space(dim: int = 12) -> spaces.Box:
-    """Box bounds of the observation: d_g [0, 1], theta_g, v, w [-1, 1], sectors [0, 1]."""
-    low = np.zeros(dim, dtype=np.float32)
-    low[1:4] = -1.0
-    high = np.ones(dim, dtype=np.float32)
-    return spaces.Box(low, high, dtype=np.float32)
+def observation_space(dim: int = 12, kind: str = "paper") -> spaces.Box:
+    """Box bounds of an observation kind's entries: d_g [0, 1], theta_g, v, w [-1, 1], sectors
+    [0, 1], at every lag of the history kind; the progress entries [0, 1]. ``dim`` must be
+    the kind's (12 for the paper's)."""
+    layout = observation_layout(kind)
+    if dim != len(layout):
+        raise ConfigError(
+            f"observation_space: the {kind!r} kind has {len(layout)} entries, not {dim}"
+        )
+    return spaces.Box(observation_low(layout), np.ones(dim, dtype=np.float32), dtype=np.float32)
 
 
 class D3DWAEnv(Rebuild, gym.Env):
@@ -165,7 +173,9 @@ class D3DWAEnv(Rebuild, gym.Env):
         if not (math.isfinite(self.reward_params.scale) and self.reward_params.scale > 0):
             raise ConfigError(f"reward_scale must be > 0, got {self.reward_params.scale!r}")
         self.episode_config = episode_config
-        self.observation_space = observation_space(len(observation_layout(observation)))
+        self.observation_space = observation_space(
+            len(observation_layout(observation)), observation
+        )
         self.action_space = spaces.Discrete(actions.size)
 
         self.episode: Episode | None = None

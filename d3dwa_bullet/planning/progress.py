@@ -19,38 +19,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.params import OBSERVATION_KINDS, ProgressObservationParams
-from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
+from d3dwa_bullet.params import ProgressObservationParams
 from d3dwa_bullet.planning.planner import PlannerAction
 from d3dwa_bullet.planning.recovery import Pose, ProgressChecker
 
-PROGRESS_LAYOUT = ("stalled", "prev_wp", "prev_wc", "prev_ws", "prev_tau")
-"""Names of the entries the ``progress`` kind appends to OBSERVATION_LAYOUT."""
-LAYOUTS: dict[str, tuple[str, ...]] = {
-    "paper": OBSERVATION_LAYOUT,
-    "progress": OBSERVATION_LAYOUT + PROGRESS_LAYOUT,
-}
+PREVIOUS_ACTION_LAYOUT = ("prev_wp", "prev_wc", "prev_ws", "prev_tau")
+"""Names of the previous action's entries (the ``progress`` and ``history`` kinds share them)."""
+PROGRESS_LAYOUT = ("stalled",) + PREVIOUS_ACTION_LAYOUT
+"""Names of the entries the ``progress`` kind appends to the paper's (the kinds' registry is
+``planning.observation_kinds``)."""
 _NS = 1e9
-
-
-def check_observation_kind(kind: object, where: str = "observation") -> str:
-    """``kind`` if it is one of OBSERVATION_KINDS, else ConfigError naming ``where`` and it."""
-    if kind not in OBSERVATION_KINDS:
-        raise ConfigError(
-            f"{where}: unknown observation kind {kind!r}; choose one of {', '.join(OBSERVATION_KINDS)}"
-        )
-    return str(kind)
-
-
-def observation_layout(kind: str) -> tuple[str, ...]:
-    """Entry names of an observation kind (ConfigError for an unknown kind)."""
-    return LAYOUTS[check_observation_kind(kind)]
-
-
-def kind_of_layout(layout: tuple[str, ...] | list[str]) -> str | None:
-    """The kind whose layout this is (None: neither, e.g. a custom number of sectors)."""
-    return next((k for k, names in LAYOUTS.items() if tuple(layout) == names), None)
 
 
 class NoProgressClock:
@@ -70,17 +48,25 @@ class NoProgressClock:
         return (t - self.checker.since) / _NS
 
 
+def previous_action_entries(
+    previous: PlannerAction | None, params: ProgressObservationParams
+) -> np.ndarray:
+    """(4,) float64 in [0, 1]: the previous action's weights / weight_max and horizon / tau_max
+    (all 0 before the first choice: no action is all zeros)."""
+    out = np.zeros(len(PREVIOUS_ACTION_LAYOUT))
+    if previous is not None:
+        out[:3] = np.clip(np.array(previous[:3], dtype=np.float64) / params.weight_max, 0, 1)
+        out[3] = min(max(previous.tau / params.tau_max, 0.0), 1.0)
+    return out
+
+
 def progress_features(
     stalled_s: float, previous: PlannerAction | None, params: ProgressObservationParams
 ) -> np.ndarray:
     """The five appended entries (5,) float64 from seconds without progress and the previous
     action (None before the first choice)."""
-    out = np.zeros(len(PROGRESS_LAYOUT))
-    out[0] = min(max(stalled_s, 0.0) / params.window, 1.0)
-    if previous is not None:
-        out[1:4] = np.clip(np.array(previous[:3], dtype=np.float64) / params.weight_max, 0, 1)
-        out[4] = min(max(previous.tau / params.tau_max, 0.0), 1.0)
-    return out
+    stalled = min(max(stalled_s, 0.0) / params.window, 1.0)
+    return np.concatenate(([stalled], previous_action_entries(previous, params)))
 
 
 class ProgressObserver:
@@ -100,8 +86,3 @@ class ProgressObserver:
 
     def chose(self, action: PlannerAction) -> None:
         self.previous = action
-
-
-def make_observer(kind: str) -> ProgressObserver | None:
-    """The per-episode state an observation kind needs (None for ``paper``: none)."""
-    return ProgressObserver() if check_observation_kind(kind) == "progress" else None

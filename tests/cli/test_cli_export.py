@@ -16,7 +16,7 @@ from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
 from d3dwa_bullet.learning.agents.onnx_export import Q_TOLERANCE
 from d3dwa_bullet.method_specs import ONNX_METHODS
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
-from d3dwa_bullet.planning.progress import observation_layout
+from d3dwa_bullet.planning.observation_kinds import observation_layout
 from d3dwa_bullet.seed_dirs import seed_dirs
 from tests.support.cli import refused, run
 

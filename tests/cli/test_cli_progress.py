@@ -15,7 +15,7 @@ from d3dwa_bullet.controllers import default_policy_path
 from d3dwa_bullet.learning.agents import D3QNAgent, D3QNConfig, save_checkpoint
 from d3dwa_bullet.method_specs import LEARNED, REFERENCE
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
-from d3dwa_bullet.planning.progress import observation_layout
+from d3dwa_bullet.planning.observation_kinds import observation_layout
 
 
 def run(capsys: pytest.CaptureFixture, *argv: object) -> tuple[int, str]:
@@ -47,11 +47,11 @@ def test_a_progress_policy_is_refused_for_d3dwa(pa_policy, capsys):
 
 def test_an_unknown_observation_kind_in_a_training_config(tmp_path, capsys):
     config = tmp_path / "bad.yaml"
-    config.write_text("method: d3dwa\nobservation: history\ntotal_steps: 100\n")
+    config.write_text("method: d3dwa\nobservation: memory\ntotal_steps: 100\n")
     code, err = run(capsys, "train", "--config", config, "--out", tmp_path / "run")
     line = error_line(err)
     assert code == 2 and str(config) in line and "TrainConfig.observation" in line
-    assert "'history'" in line and "paper, progress" in line
+    assert "'memory'" in line and "paper, progress, history" in line
     assert not (tmp_path / "run").exists()
     config.write_text("method: d3dwa\nobservation: progress\n")
     code, err = run(capsys, "train", "--config", config, "--out", tmp_path / "run")

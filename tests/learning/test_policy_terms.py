@@ -22,7 +22,7 @@ from d3dwa_bullet.learning.agents.onnx_policy import (
     sample_observations,
 )
 from d3dwa_bullet.learning.agents.policy_terms import decision_period, trained_recovery
-from d3dwa_bullet.planning.progress import observation_layout
+from d3dwa_bullet.planning.observation_kinds import observation_layout
 from tests.support.held_policy import held_checkpoint
 
 HOLD = 10

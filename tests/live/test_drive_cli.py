@@ -18,7 +18,7 @@ from d3dwa_bullet.episode import EpisodeConfig  # noqa: E402
 from d3dwa_bullet.learning.agents import D3QNAgent, D3QNConfig, save_checkpoint  # noqa: E402
 from d3dwa_bullet.learning.agents.onnx_export import export_onnx  # noqa: E402
 from d3dwa_bullet.planning.actions import ACTIONS_FULL  # noqa: E402
-from d3dwa_bullet.planning.progress import observation_layout  # noqa: E402
+from d3dwa_bullet.planning.observation_kinds import observation_layout  # noqa: E402
 from d3dwa_bullet.resources import policies_dir  # noqa: E402
 from d3dwa_bullet.sim.lidar import LidarParams  # noqa: E402
 from d3dwa_bullet.world.registry import load_world  # noqa: E402

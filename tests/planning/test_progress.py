@@ -14,14 +14,16 @@ from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.method_specs import METHODS, method_observation
 from d3dwa_bullet.params import PROGRESS_RADIUS, PROGRESS_WINDOW, ProgressObservationParams
 from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT, build_observation
+from d3dwa_bullet.planning.observation_kinds import (
+    check_observation_kind,
+    kind_of_layout,
+    observation_layout,
+)
 from d3dwa_bullet.planning.planner import PlannerAction
 from d3dwa_bullet.planning.progress import (
     PROGRESS_LAYOUT,
     NoProgressClock,
     ProgressObserver,
-    check_observation_kind,
-    kind_of_layout,
-    observation_layout,
     progress_features,
 )
 from d3dwa_bullet.planning.recovery import RecoveryCommand
@@ -54,8 +56,10 @@ def test_unknown_observation_kinds_are_refused_by_name(kind: object) -> None:
         check_observation_kind(kind, "TrainConfig.observation")
 
 
-def test_every_registered_method_reads_the_papers_observation() -> None:
-    assert {method_observation(m) for m in METHODS} == {"paper"}
+def test_every_registered_method_but_the_history_one_reads_the_papers_observation() -> None:
+    kinds = {m: method_observation(m) for m in METHODS}
+    assert {m for m, k in kinds.items() if k != "paper"} == {"d3dwa-history-dr"}
+    assert kinds["d3dwa-history-dr"] == "history"
     assert make_controller("dwa3").observation == "paper"
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 from d3dwa_bullet.learning.agents.checkpoint import save_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
-from d3dwa_bullet.planning.progress import observation_layout
+from d3dwa_bullet.planning.observation_kinds import observation_layout
 
 
 def held_checkpoint(

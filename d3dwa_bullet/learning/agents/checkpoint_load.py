@@ -29,7 +29,7 @@ from d3dwa_bullet.learning.agents.policy_terms import folder_terms
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
-from d3dwa_bullet.planning.progress import kind_of_layout
+from d3dwa_bullet.planning.observation_kinds import kind_of_layout
 
 
 def read_meta(directory: str | os.PathLike[str]) -> dict[str, Any]:

@@ -18,7 +18,7 @@ from d3dwa_bullet.learning.agents.policy_terms import (
 )
 from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.planning.actions import ActionSet
-from d3dwa_bullet.planning.progress import LAYOUTS, observation_layout
+from d3dwa_bullet.planning.observation_kinds import LAYOUTS, observation_layout
 
 ONNX_FORMAT_VERSION = 2
 """Version of the metadata written here. Version 2 added the decision period and the recovery

@@ -56,7 +56,7 @@ from d3dwa_bullet.learning.agents.onnx_policy import (
 )
 from d3dwa_bullet.learning.agents.policy_terms import checkpoint_terms
 from d3dwa_bullet.planning.actions import ActionSet
-from d3dwa_bullet.planning.progress import kind_of_layout, observation_layout
+from d3dwa_bullet.planning.observation_kinds import kind_of_layout, observation_layout
 from d3dwa_bullet.resources import policies_dir
 
 CHECK_OBSERVATIONS = 1_000

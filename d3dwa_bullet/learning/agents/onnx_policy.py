@@ -60,7 +60,7 @@ from d3dwa_bullet.learning.agents.onnx_guard import (
 )
 from d3dwa_bullet.learning.agents.onnx_run import OnnxGreedyPolicy
 from d3dwa_bullet.planning.actions import ActionSet
-from d3dwa_bullet.planning.progress import observation_layout
+from d3dwa_bullet.planning.observation_kinds import observation_layout
 
 __all__ = [
     "INPUT_NAME",

@@ -21,7 +21,7 @@ from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
 from d3dwa_bullet.learning.agents.network import DuelingQNetwork
 from d3dwa_bullet.planning.actions import ActionSet
-from d3dwa_bullet.planning.progress import observation_layout
+from d3dwa_bullet.planning.observation_kinds import observation_layout
 
 
 class Policy(Protocol):

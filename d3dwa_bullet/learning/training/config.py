@@ -34,7 +34,7 @@ from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.method_specs import LEARNED, method_observation
 from d3dwa_bullet.params import RewardParams, recovery_params
 from d3dwa_bullet.planning.actions import ActionSet
-from d3dwa_bullet.planning.progress import check_observation_kind, observation_layout
+from d3dwa_bullet.planning.observation_kinds import check_observation_kind, observation_layout
 
 #: Reward scale by agent family: the D3QN uses the baseline magnitudes / 100 (paper).
 DEFAULT_REWARD_SCALE = {"d3qn": 0.01, "dqdwa": 1.0}
