@@ -171,8 +171,10 @@ def test_total_steps_errors_name_the_option(tmp_path: Path, capsys) -> None:
     assert capsys.readouterr().err.strip() == "d3dwa: error: --total-steps must be >= 1, got -5"
 
 
+@pytest.mark.slow
 def test_seeds_as_ray_tasks_write_the_runs_a_local_run_writes(tiny: str, tmp_path: Path) -> None:
-    """A private local Ray instance (ray.init(address='local')), as the eval tests start."""
+    """A private local Ray instance (ray.init(address='local')), as the eval tests start: 40-80 s
+    (starting Ray is most of it), so slow."""
     ray = pytest.importorskip("ray", reason="ray is not installed (pip install '.[ray]')")
     from tests.learning.test_training import _episodes
 
