@@ -75,6 +75,13 @@ GOLDEN_ACTIONS = {
         3: [38, 19, 18, 23, 72, 65],
         4: [64, 39, 4, 38, 92, 85],
     },
+    "d3dwa-history-dr": {
+        0: [93, 8, 13, 35, 24, 75],
+        1: [22, 22, 30, 74, 84, 17],
+        2: [55, 93, 38, 51, 72, 12],
+        3: [41, 69, 6, 68, 78, 13],
+        4: [70, 73, 67, 43, 36, 11],
+    },
 }
 """Greedy action index of each shipped seed for each of OBSERVATIONS, recorded from the
 weights in policies/. After shipping new seeds on purpose, regenerate them with
