@@ -16,7 +16,7 @@ from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.noise_config import NoiseConfig
 from randomization import episode_noise, list_profiles, load_profile
 
-SHIPPED = ["harsh", "none", "paper", "real", "wide", "wide-lidar"]
+SHIPPED = ["harsh", "none", "paper", "real", "wide", "wide-dynamics", "wide-lidar"]
 
 
 def real_dict() -> dict[str, Any]:
