@@ -23,6 +23,18 @@ are left out on purpose: they mostly scale the value, not which weights are best
 every extra feature multiplies the table.
 
 Rewards are the unscaled baseline magnitudes (``RewardParams()``, scale 1).
+
+Two options of the learner, both inside tabular Q-learning and off by default (the defaults are
+the one-step update with a constant step size):
+
+- ``n_step: n > 1`` learns from the D3QN's n-step targets (agents/n_step.py, per env):
+  ``r_t + ... + gamma^(k-1) r_{t+k-1} + gamma^k max_a Q[s_{t+k}, a]``, k <= n, no bootstrap past
+  a goal or collision. With n at least the episode's length in decisions the target is the
+  discounted return still to come, so no value has to travel back one state at a time through a
+  table whose states alias many places.
+- ``alpha_schedule: visits`` steps each entry by ``max(1 / N[s, a], alpha)``, N the updates it
+  has had: the first update sets the entry to its target (no pull towards ``initial_q``), later
+  ones average, and ``alpha`` is the floor that keeps tracking a changing policy.
 """
 
 from __future__ import annotations
@@ -36,12 +48,16 @@ import numpy as np
 
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.learning.agents.d3qn import exponential_epsilon
+from d3dwa_bullet.learning.agents.n_step import NStepWindows
 from d3dwa_bullet.learning.agents.replay import Transition
 from d3dwa_bullet.params import ObservationParams
 from d3dwa_bullet.planning.actions import ACTIONS_WEIGHTS_ONLY, ActionSet
 from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
 
 DIRECTIONS = ("right", "front", "left")
+ALPHA_SCHEDULES = ("constant", "visits")
+MAX_N_STEP = 600
+"""The longest n-step target: an episode's 60 s in control steps."""
 
 
 def _increasing(values: tuple[float, ...], name: str) -> tuple[float, ...]:
@@ -160,7 +176,11 @@ class DQDWAConfig:
     """Hyper-parameters of the tabular baseline; saved beside every checkpoint."""
 
     alpha: float = 0.1
-    """Learning rate of the Q update."""
+    """Step size of the Q update (with ``alpha_schedule: visits``, its floor)."""
+    alpha_schedule: str = "constant"
+    """'constant' (alpha every update) or 'visits' (max(1 / N[s, a], alpha), module docstring)."""
+    n_step: int = 1
+    """Rewards summed before the bootstrap (1: the one-step Q-learning target)."""
     gamma: float = 0.99
     """Discount factor per control step (0.1 s), the same as the D3QN's."""
     eps_start: float = 1.0
@@ -188,6 +208,14 @@ class DQDWAConfig:
             ),
             ("eps_decay", self.eps_decay > 0, "> 0"),
             ("initial_q", math.isfinite(self.initial_q), "finite"),
+            ("alpha_schedule", self.alpha_schedule in ALPHA_SCHEDULES, f"one of {ALPHA_SCHEDULES}"),
+            (
+                "n_step",
+                isinstance(self.n_step, int)
+                and not isinstance(self.n_step, bool)
+                and 1 <= self.n_step <= MAX_N_STEP,
+                f"an integer in [1, {MAX_N_STEP}]",
+            ),
         ]
         for name, ok, rule in checks:
             if not ok:
@@ -231,6 +259,9 @@ class DQDWAAgent:
         self.table = np.full(
             (self.discretisation.n_states, self.n_actions), config.initial_q, dtype=np.float64
         )
+        self.visits = np.zeros(self.table.shape, dtype=np.int64)
+        """Updates each entry has had (the step size of ``alpha_schedule: visits``)."""
+        self.n_step_windows = NStepWindows(config.n_step, config.gamma)
         self._rng = np.random.default_rng(config.seed)
         self.train_steps = 0
         """Q updates made (advances epsilon)."""
@@ -254,19 +285,26 @@ class DQDWAAgent:
             return int(self._rng.integers(self.n_actions))
         return int(np.argmax(self.table[self.state_index(obs)]))
 
-    def update(self, s: int, a: int, r: float, s2: int, terminated: bool) -> float:
+    def update(
+        self, s: int, a: int, r: float, s2: int, terminated: bool, discount: float | None = None
+    ) -> float:
         """One Q-learning update on table indices; returns the TD error before the update.
 
         Truncation by the time limit must be passed as ``terminated=False`` (it bootstraps).
+        ``discount`` is the bootstrap's (gamma^k for a k-step target; default gamma).
         """
         n_s, n_a = self.table.shape
         if not (0 <= s < n_s and 0 <= s2 < n_s and 0 <= a < n_a):
             raise ValueError(
                 f"DQDWA.update: index out of range (s={s}, a={a}, s2={s2}; table {n_s}x{n_a})"
             )
-        target = r + (0.0 if terminated else self.config.gamma * float(self.table[s2].max()))
+        c = self.config
+        bootstrap = c.gamma if discount is None else float(discount)
+        target = r + (0.0 if terminated else bootstrap * float(self.table[s2].max()))
         td = target - float(self.table[s, a])
-        self.table[s, a] += self.config.alpha * td
+        self.visits[s, a] += 1
+        step = c.alpha if c.alpha_schedule == "constant" else max(1.0 / self.visits[s, a], c.alpha)
+        self.table[s, a] += step * td
         self.train_steps += 1
         return td
 
@@ -274,12 +312,19 @@ class DQDWAAgent:
         """``act`` for each row of a batch (n, obs_dim), in order: (n,) int64."""
         return np.array([self.act(o) for o in obs], dtype=np.int64)
 
-    def learn(self, transition: Transition) -> dict[str, float]:
-        """Discretise a transition and update: the one call a training loop makes per step."""
-        s = self.state_index(transition.obs)
-        s2 = self.state_index(transition.next_obs)
-        td = self.update(
-            s, int(transition.action), float(transition.reward), s2, bool(transition.terminated)
-        )
+    def learn(self, transition: Transition, env: int = 0) -> dict[str, float]:
+        """Discretise env ``env``'s transition and update: the one call a training loop makes
+        per step. With ``n_step`` > 1 the transition waits in the env's window and the n-step
+        targets it completes are learned (none until the window is full; all at an episode
+        end); the logs carry the mean TD error of those updates."""
+        tds = []
+        for t, discount in self.n_step_windows.push(transition, env):
+            s, s2 = self.state_index(t.obs), self.state_index(t.next_obs)
+            tds.append(
+                self.update(s, int(t.action), float(t.reward), s2, bool(t.terminated), discount)
+            )
         self.env_steps += 1
-        return {"losses/td_error": td, "charts/epsilon": self.epsilon()}
+        logs = {"charts/epsilon": self.epsilon()}
+        if tds:
+            logs["losses/td_error"] = float(np.mean(tds))
+        return logs

@@ -36,6 +36,7 @@ from d3dwa_bullet.learning.agents.checkpoint import (
     torch_load_failure,
 )
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
+from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
 from d3dwa_bullet.loading import load_json
 
 
@@ -95,6 +96,9 @@ def training_state_files(agent: Agent, trainer: Mapping[str, Any]) -> dict[str, 
             discounts=replay._discounts[:n],
         )
         files[REPLAY_FILE] = buf.getvalue()
+    else:  # the tabular agent: its table is the checkpoint's data file
+        state["visits"] = agent.visits.tolist()
+        state["n_step_windows"] = agent.n_step_windows.state()
     try:
         text = json.dumps(state, indent=1, sort_keys=True, allow_nan=False)
     except (TypeError, ValueError) as err:
@@ -156,4 +160,25 @@ def restore_training_state(directory: str | os.PathLike[str], agent: Agent) -> d
         replay._size, replay._pos = n, int(info["pos"])
         _set_rng_state(replay._rng, info["rng"], str(path))
         agent.n_step_windows.load_state(state.get("n_step_windows", {}), str(path))
+    else:
+        _restore_visits(agent, state.get("visits"), str(path))
+        agent.n_step_windows.load_state(state.get("n_step_windows", {}), str(path))
     return dict(state["trainer"])
+
+
+def _restore_visits(agent: DQDWAAgent, visits: Any, where: str) -> None:
+    """The tabular agent's update counts; a state from before they were kept restores none
+    (only ``alpha_schedule: visits`` reads them)."""
+    if visits is None:
+        agent.visits[...] = 0
+        return
+    try:
+        counts = np.asarray(visits, dtype=np.int64)
+    except (TypeError, ValueError, OverflowError) as err:
+        raise CheckpointError(f"{where}: field 'visits' is not a table of counts ({err})") from err
+    if counts.shape != agent.visits.shape or (counts < 0).any():
+        raise CheckpointError(
+            f"{where}: field 'visits' has shape {counts.shape} (or a negative count), the "
+            f"Q-table is {agent.visits.shape}"
+        )
+    agent.visits[...] = counts

@@ -99,4 +99,4 @@ def feed(agent: Agent, transition: Transition, env: int = 0) -> Updates:
     if isinstance(agent, D3QNAgent):
         agent.observe(transition, env)
         return []
-    return [agent.learn(transition)]
+    return [agent.learn(transition, env)]
