@@ -1,12 +1,16 @@
-"""Shared fixtures: small worlds built in memory or written to a file, and a quiet matplotlib."""
+"""Shared fixtures: small worlds built in memory or written to a file, a quiet matplotlib, and
+property tests that draw the same examples on every run (unit tests stay deterministic)."""
 
 from __future__ import annotations
 
 import matplotlib
 import pytest
 import yaml
+from hypothesis import settings
 
 matplotlib.use("Agg")
+settings.register_profile("deterministic", derandomize=True)
+settings.load_profile("deterministic")
 
 from d3dwa_bullet.world.model import Box, Cylinder, World  # noqa: E402
 

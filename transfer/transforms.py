@@ -35,7 +35,9 @@ def quaternion_from_yaw(yaw: float) -> tuple[float, float, float, float]:
 
     yaw is wrapped to (-pi, pi] first. The textbook (sin(yaw/2), cos(yaw/2)) decodes back
     to yaw within 1 ulp; nudging z by a few ulp (a rotation change below 1e-15 rad) makes
-    the round trip bit-exact, so a recorded pose replays to the same float64 values.
+    the round trip bit-exact, so a recorded pose replays to the same float64 values. Below
+    |yaw| = 2 x the smallest normal float (4.5e-308 rad) sin(yaw/2) is subnormal and the
+    round trip is exact only to one subnormal step (5e-324 rad).
     """
     yaw = wrap_angle(float(yaw))
     z, w = math.sin(0.5 * yaw), math.cos(0.5 * yaw)
