@@ -94,8 +94,8 @@ def step_envs(
 
 def feed(agent: Agent, transition: Transition, env: int = 0) -> Updates:
     """Give env ``env``'s transition to the learner: the D3QN stores it (its gradient steps
-    come with the next ``step_envs``), the tabular agent learns from it at once; the update
-    logs."""
+    come with the next ``step_envs``), the tabular agent learns from it at once (or, with
+    ``n_step`` > 1, from the n-step targets it completes); the update logs."""
     if isinstance(agent, D3QNAgent):
         agent.observe(transition, env)
         return []
