@@ -4,8 +4,6 @@ default), their checks, and a run with them that resumes exactly."""
 from __future__ import annotations
 
 import json
-import os
-import signal
 from dataclasses import replace
 from pathlib import Path
 
@@ -16,12 +14,11 @@ from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.learning.agents.dqdwa import Discretisation, DQDWAAgent, DQDWAConfig
 from d3dwa_bullet.learning.agents.replay import Transition
 from d3dwa_bullet.learning.agents.training_state import restore_training_state
-from d3dwa_bullet.learning.env import D3DWAEnv
 from d3dwa_bullet.learning.training import TrainConfig, train
 from d3dwa_bullet.planning.actions import ACTIONS_WEIGHTS_ONLY
 
 from .test_dqdwa import make_obs
-from .test_training import TINY_WORLD
+from .test_training import TINY_WORLD, _interrupt_at
 
 
 def _obs(k: int) -> np.ndarray:
@@ -96,16 +93,8 @@ def test_a_run_with_both_options_resumes_exactly(
     config = _config(str(world))
     a, b = tmp_path / "a", tmp_path / "b"
     train(config, a, progress=False)
-    original, calls = D3DWAEnv.step, {"n": 0}
-
-    def step_then_interrupt(self: D3DWAEnv, action: int):  # type: ignore[no-untyped-def]
-        calls["n"] += 1
-        if calls["n"] == 41:
-            os.kill(os.getpid(), signal.SIGINT)
-        return original(self, action)
-
     with monkeypatch.context() as m:
-        m.setattr(D3DWAEnv, "step", step_then_interrupt)
+        _interrupt_at(m, 41)
         stopped = train(replace(config, total_steps=90), b, progress=False)
     assert stopped["status"] == "interrupted"
     state = json.loads((b / "checkpoints/latest/training_state.json").read_text())

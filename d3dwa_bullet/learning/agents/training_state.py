@@ -64,6 +64,7 @@ def training_state_files(agent: Agent, trainer: Mapping[str, Any]) -> dict[str, 
         "train_steps": agent.train_steps,
         "epsilon": agent.epsilon(),
         "agent_rng": _rng_state(agent._rng),
+        "n_step_windows": agent.n_step_windows.state(),
         "trainer": dict(trainer),
     }
     files: dict[str, bytes] = {}
@@ -84,7 +85,6 @@ def training_state_files(agent: Agent, trainer: Mapping[str, Any]) -> dict[str, 
             "pos": replay._pos,
             "rng": _rng_state(replay._rng),
         }
-        state["n_step_windows"] = agent.n_step_windows.state()
         buf = io.BytesIO()
         np.savez(
             buf,
@@ -98,7 +98,6 @@ def training_state_files(agent: Agent, trainer: Mapping[str, Any]) -> dict[str, 
         files[REPLAY_FILE] = buf.getvalue()
     else:  # the tabular agent: its table is the checkpoint's data file
         state["visits"] = agent.visits.tolist()
-        state["n_step_windows"] = agent.n_step_windows.state()
     try:
         text = json.dumps(state, indent=1, sort_keys=True, allow_nan=False)
     except (TypeError, ValueError) as err:
@@ -159,10 +158,9 @@ def restore_training_state(directory: str | os.PathLike[str], agent: Agent) -> d
             raise CheckpointError(f"{rpath}: cannot restore the replay buffer ({err})") from err
         replay._size, replay._pos = n, int(info["pos"])
         _set_rng_state(replay._rng, info["rng"], str(path))
-        agent.n_step_windows.load_state(state.get("n_step_windows", {}), str(path))
     else:
         _restore_visits(agent, state.get("visits"), str(path))
-        agent.n_step_windows.load_state(state.get("n_step_windows", {}), str(path))
+    agent.n_step_windows.load_state(state.get("n_step_windows", {}), str(path))
     return dict(state["trainer"])
 
 
