@@ -15,7 +15,7 @@ import pytest
 
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
-from d3dwa_bullet.learning.agents.n_step import NStepWindows
+from d3dwa_bullet.learning.agents.n_step import MAX_N_STEP, NStepWindows
 from d3dwa_bullet.learning.agents.replay import Transition
 from d3dwa_bullet.learning.training.collector import Collector, env_seeds
 from d3dwa_bullet.learning.training.config import TrainConfig
@@ -81,7 +81,7 @@ def test_the_windows_round_trip_through_json() -> None:
         NStepWindows(4, 0.9).load_state({"0": [[1, 2]]}, "test")
 
 
-@pytest.mark.parametrize("bad", [0, 1001])
+@pytest.mark.parametrize("bad", [0, MAX_N_STEP + 1, 2.5, True])
 def test_n_step_out_of_range_is_a_config_error(bad: int) -> None:
     with pytest.raises(ConfigError, match="n_step"):
         D3QNConfig(n_step=bad)

@@ -48,7 +48,7 @@ import numpy as np
 
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.learning.agents.d3qn import exponential_epsilon
-from d3dwa_bullet.learning.agents.n_step import NStepWindows
+from d3dwa_bullet.learning.agents.n_step import MAX_N_STEP, NStepWindows
 from d3dwa_bullet.learning.agents.replay import Transition
 from d3dwa_bullet.params import ObservationParams
 from d3dwa_bullet.planning.actions import ACTIONS_WEIGHTS_ONLY, ActionSet
@@ -56,8 +56,6 @@ from d3dwa_bullet.planning.observation import OBSERVATION_LAYOUT
 
 DIRECTIONS = ("right", "front", "left")
 ALPHA_SCHEDULES = ("constant", "visits")
-MAX_N_STEP = 600
-"""The longest n-step target: an episode's 60 s in control steps."""
 
 
 def _increasing(values: tuple[float, ...], name: str) -> tuple[float, ...]:

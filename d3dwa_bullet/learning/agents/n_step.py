@@ -25,6 +25,11 @@ import numpy as np
 from d3dwa_bullet.errors import CheckpointError
 from d3dwa_bullet.learning.agents.replay import Transition
 
+MAX_N_STEP = 600
+"""The longest n-step target, for both learners (``D3QNConfig.n_step``,
+``DQDWAConfig.n_step``): a 60 s episode at 10 Hz has at most 600 decisions, so a longer
+window only ever folds whole episodes."""
+
 
 class NStepWindows:
     """One window of pending transitions per env; ``push`` returns what is ready to store."""
