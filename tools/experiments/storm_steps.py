@@ -1,7 +1,9 @@
 """What precedes a fallback storm: the scan, the chosen (weights, tau) and the admissible set.
 
 Re-runs episodes of a sweep directory (episodes are deterministic given layout, method,
-training seed, episode seed and noise) with a step hook that records, per control step: whether
+training seed, episode seed and noise) with the policies, recovery layer and scan filter the
+sweep ran (its meta.json; weights whose digest differs from the sweep's are refused) and a
+step hook that records, per control step: whether
 the planner fell back, how many of its (v, w) samples were admissible, the chosen weights and
 horizon, the nearest return the noisy scan shows against the nearest true surface (a *phantom*
 step: the scan's nearest return is more than ``PHANTOM_M`` nearer than anything real), and the
@@ -31,12 +33,12 @@ from d3dwa_bullet.episode import Episode, run_episode
 from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.jobs import make_noise
-from d3dwa_bullet.evaluation.results import job_rows, recovery_of
+from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
+from d3dwa_bullet.evaluation.results import job_rows, read_meta, recovery_of
 from d3dwa_bullet.method_specs import needs_policy
 from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.planning.actions import PlannerAction
 from d3dwa_bullet.planning.planner import PlanResult
-from d3dwa_bullet.resources import policies_dir
 from d3dwa_bullet.world.generator import generate_world
 from d3dwa_bullet.world.registry import load_world
 from tools.entry import ToolParser, tool_main
@@ -55,12 +57,39 @@ def world_of(name: str):
     return load_world(name)
 
 
-def steps_of(row: dict[str, Any], config: EpisodeConfig) -> dict[str, np.ndarray]:
+def episode_config(sweep: Path, meta: dict[str, Any]) -> EpisodeConfig:
+    """The recovery layer and scan filter a sweep's episodes ran with."""
+    scan_filter = str(meta.get("config", {}).get("scan_filter", "none"))
+    recovery = recovery_params(recovery_of(sweep))
+    return replace(EpisodeConfig(), recovery=recovery, scan_filter=scan_filter)
+
+
+def policies_of(
+    sweep: Path, meta: dict[str, Any], method: str, seeds: set[int]
+) -> dict[int | None, str | None]:
+    """Per training seed, the policy folder ``method`` drove in the sweep (its ``--policy``,
+    else the shipped folder); ResultsError if its weights are not the ones the sweep recorded
+    (a folder retrained or replaced since), so no episode is re-run with other weights."""
+    if not needs_policy(method):
+        return {None: None}
+    settings = meta.get("settings", {})
+    chosen = ",".join(str(k) for k in sorted(seeds)) or None  # None: one policy, no seeds
+    runs = method_runs([method], settings.get("policy"), chosen)
+    recorded = settings.get("policy_digests", {})
+    for name, digest in policy_digests(runs).items():
+        if name in recorded and recorded[name] != digest:
+            raise ResultsError(
+                f"{sweep}: {name}'s weights are not the ones the sweep ran "
+                f"(meta.json policy_digests); re-run the sweep or restore the policy"
+            )
+    return {run.policy_seed: run.policy for run in runs}
+
+
+def steps_of(
+    row: dict[str, Any], config: EpisodeConfig, policy: str | None
+) -> dict[str, np.ndarray]:
     """Per-step records of a sweep row's episode, re-run with the step hook."""
     method, seed = row["method"], int(row["seed"])
-    policy = None
-    if needs_policy(method):
-        policy = policies_dir() / method / f"seed-{row['policy_seed']}"
     controller = make_controller(method, policy)
     out: dict[str, list[float]] = defaultdict(list)
 
@@ -143,15 +172,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"storm_steps: --policy-seeds {args.policy_seeds!r}: not integers", file=sys.stderr)
         return 2
     try:
-        config = replace(EpisodeConfig(), recovery=recovery_params(recovery_of(args.sweep)))
-        rows = [r for r in job_rows(args.sweep) if r["noise"] == args.noise]
+        meta = read_meta(args.sweep)
+        config = episode_config(args.sweep, meta)
+        rows = [r for r in job_rows(args.sweep, meta) if r["noise"] == args.noise]
         report = {}
         for method in args.methods.split(","):
             mine = [r for r in rows if r["method"] == method
                     and (r["policy_seed"] is None or r["policy_seed"] in seeds)]  # fmt: skip
             if not mine:
                 raise ResultsError(f"{args.sweep}: no rows of {method!r} under {args.noise!r}")
-            report[method] = summarise([steps_of(r, config) for r in mine])
+            policies = policies_of(
+                args.sweep,
+                meta,
+                method,
+                {int(r["policy_seed"]) for r in mine if r["policy_seed"] is not None},
+            )
+            report[method] = summarise(
+                [steps_of(r, config, policies[r["policy_seed"]]) for r in mine]
+            )
     except D3DWAError as exc:
         print(f"storm_steps: {exc}", file=sys.stderr)
         return 2
