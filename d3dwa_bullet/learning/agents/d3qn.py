@@ -33,7 +33,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.learning.agents.n_step import MAX_N_STEP, NStepWindows
+from d3dwa_bullet.learning.agents.n_step import N_STEP_RULE, NStepWindows, is_n_step
 from d3dwa_bullet.learning.agents.network import DuelingQNetwork
 from d3dwa_bullet.learning.agents.replay import ReplayBuffer, Transition
 from d3dwa_bullet.limits import MAX_REPLAY_CAPACITY
@@ -109,13 +109,7 @@ class D3QNConfig:
             ("huber_delta", self.huber_delta > 0, "> 0"),
             ("hidden", bool(self.hidden) and min(self.hidden) >= 1, "non-empty positive widths"),
             ("torch_threads", self.torch_threads >= 0, ">= 0"),
-            (
-                "n_step",
-                isinstance(self.n_step, int)
-                and not isinstance(self.n_step, bool)
-                and 1 <= self.n_step <= MAX_N_STEP,
-                f"an integer in [1, {MAX_N_STEP}]",
-            ),
+            ("n_step", is_n_step(self.n_step), N_STEP_RULE),
         ]
         for name, ok, rule in checks:
             if not ok:

@@ -48,7 +48,7 @@ import numpy as np
 
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.learning.agents.d3qn import exponential_epsilon
-from d3dwa_bullet.learning.agents.n_step import MAX_N_STEP, NStepWindows
+from d3dwa_bullet.learning.agents.n_step import N_STEP_RULE, NStepWindows, is_n_step
 from d3dwa_bullet.learning.agents.replay import Transition
 from d3dwa_bullet.params import ObservationParams
 from d3dwa_bullet.planning.actions import ACTIONS_WEIGHTS_ONLY, ActionSet
@@ -207,13 +207,7 @@ class DQDWAConfig:
             ("eps_decay", self.eps_decay > 0, "> 0"),
             ("initial_q", math.isfinite(self.initial_q), "finite"),
             ("alpha_schedule", self.alpha_schedule in ALPHA_SCHEDULES, f"one of {ALPHA_SCHEDULES}"),
-            (
-                "n_step",
-                isinstance(self.n_step, int)
-                and not isinstance(self.n_step, bool)
-                and 1 <= self.n_step <= MAX_N_STEP,
-                f"an integer in [1, {MAX_N_STEP}]",
-            ),
+            ("n_step", is_n_step(self.n_step), N_STEP_RULE),
         ]
         for name, ok, rule in checks:
             if not ok:

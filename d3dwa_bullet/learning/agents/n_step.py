@@ -29,6 +29,13 @@ MAX_N_STEP = 600
 """The longest n-step target, for both learners (``D3QNConfig.n_step``,
 ``DQDWAConfig.n_step``): a 60 s episode at 10 Hz has at most 600 decisions, so a longer
 window only ever folds whole episodes."""
+N_STEP_RULE = f"an integer in [1, {MAX_N_STEP}]"
+"""What both configs' ``n_step`` check says when it fails."""
+
+
+def is_n_step(value: object) -> bool:
+    """Whether ``value`` is an n-step length: a whole number in [1, MAX_N_STEP]."""
+    return isinstance(value, int) and not isinstance(value, bool) and 1 <= value <= MAX_N_STEP
 
 
 class NStepWindows:
