@@ -87,9 +87,11 @@ def with_recovery(fields: Sequence[str], recovery: str) -> tuple[str, ...]:
     return tuple(fields) if recovery == "none" else (*fields, RECOVERY_FIELD)
 
 
-def recovery_of(out: Path) -> str:
-    """The --recovery a results directory's episodes ran with ("none" for the paper track)."""
-    return str(read_meta(out).get("settings", {}).get("recovery", "none"))
+def recovery_of(out: Path, meta: Mapping[str, Any] | None = None) -> str:
+    """The --recovery a results directory's episodes ran with ("none" for the paper track).
+    meta: the directory's meta.json if already read."""
+    meta = read_meta(out) if meta is None else meta
+    return str(meta.get("settings", {}).get("recovery", "none"))
 
 
 def row_key(row: Mapping[str, Any]) -> Key:

@@ -43,7 +43,6 @@ def test_weights_other_than_the_sweeps_are_refused(tmp_path: Path) -> None:
 
 
 def test_the_sweeps_layer_and_scan_filter_are_kept(tmp_path: Path) -> None:
-    (tmp_path / "meta.json").write_text('{"settings": {"recovery": "nav2"}}')
-    config = episode_config(tmp_path, _sweep_meta(None, ""))
+    config = episode_config(tmp_path, _sweep_meta(None, ""))  # no meta.json: read once, given
     assert config.scan_filter == "speckle+median"
     assert config.recovery is not None and config.recovery.kind == "nav2"

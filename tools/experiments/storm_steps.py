@@ -35,6 +35,7 @@ from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
 from d3dwa_bullet.evaluation.results import job_rows, read_meta, recovery_of
+from d3dwa_bullet.evaluation.tables import scan_filter_of
 from d3dwa_bullet.method_specs import needs_policy
 from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.planning.actions import PlannerAction
@@ -59,9 +60,8 @@ def world_of(name: str):
 
 def episode_config(sweep: Path, meta: dict[str, Any]) -> EpisodeConfig:
     """The recovery layer and scan filter a sweep's episodes ran with."""
-    scan_filter = str(meta.get("config", {}).get("scan_filter", "none"))
-    recovery = recovery_params(recovery_of(sweep))
-    return replace(EpisodeConfig(), recovery=recovery, scan_filter=scan_filter)
+    recovery = recovery_params(recovery_of(sweep, meta))
+    return replace(EpisodeConfig(), recovery=recovery, scan_filter=scan_filter_of(meta))
 
 
 def policies_of(
