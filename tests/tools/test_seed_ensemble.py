@@ -52,3 +52,11 @@ def test_a_folder_of_one_seed_is_refused(tmp_path: Path) -> None:
     (tmp_path / "one").mkdir()
     with pytest.raises(CheckpointError, match="needs 3 or more seed folders"):
         write_ensembles(tmp_path / "one", tmp_path / "out")
+
+
+def test_the_ensemble_records_only_what_its_members_share(tmp_path: Path) -> None:
+    written = write_ensembles(policies_dir() / "d3dwa-dr", tmp_path / "ens", leave_one_out=False)
+    metadata = load_checkpoint(written[0])[1]["metadata"]
+    assert metadata["decision_steps"] == 10 and metadata["recovery"] == "nav2"
+    assert "eval" not in metadata and "run" not in metadata  # one member's, not the ensemble's
+    assert len(metadata["ensemble_of"]) == 5

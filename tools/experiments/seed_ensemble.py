@@ -91,7 +91,9 @@ def write_ensemble(members: dict[int, Path], out: Path) -> Path:
     ensemble.online.load_state_dict(wide.state_dict())
     ensemble.env_steps, ensemble.train_steps = first.env_steps, first.train_steps
     meta = loaded[0][1]
-    metadata = dict(meta.get("metadata") or {})
+    # the training terms every member records alike; not one member's validation or run name
+    shared = [m.get("metadata") or {} for _, m in loaded]
+    metadata = {k: v for k, v in shared[0].items() if all(s.get(k) == v for s in shared)}
     metadata["ensemble_of"] = {f"seed-{k}": str(path) for k, path in members.items()}
     run_config = json.loads((next(iter(members.values())) / "config.json").read_text())
     run_config["agent"]["hidden"] = list(wide.hidden)
