@@ -37,6 +37,7 @@ from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint
 from d3dwa_bullet.learning.agents.checkpoint_save import save_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 from d3dwa_bullet.learning.agents.network import DuelingQNetwork
+from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.seed_dirs import seed_dirs
 from tools.entry import ToolParser, tool_main
 
@@ -95,7 +96,10 @@ def write_ensemble(members: dict[int, Path], out: Path) -> Path:
     shared = [m.get("metadata") or {} for _, m in loaded]
     metadata = {k: v for k, v in shared[0].items() if all(s.get(k) == v for s in shared)}
     metadata["ensemble_of"] = {f"seed-{k}": str(path) for k, path in members.items()}
-    run_config = json.loads((next(iter(members.values())) / "config.json").read_text())
+    config_path = next(iter(members.values())) / "config.json"
+    run_config = load_json(config_path, CheckpointError, "training config.json")
+    if not isinstance(run_config, dict) or not isinstance(run_config.get("agent"), dict):
+        raise CheckpointError(f"{config_path}: expected a training config with an 'agent' block")
     run_config["agent"]["hidden"] = list(wide.hidden)
     with tempfile.TemporaryDirectory() as tmp:
         config_file = Path(tmp) / "config.json"
