@@ -9,7 +9,7 @@ block-diagonal, each head averaged over the members), so its Q-values are the me
 to float32 rounding and every command that drives a policy (``run``, ``sweep``, ``compare``,
 ``drive``, ONNX export) drives it unchanged.
 
-With ``--leave-one-out`` (the default) it writes, for each seed k of the folder, the ensemble
+By default (leave one out) it writes, for each seed k of the folder, the ensemble
 of the *other* seeds as ``<out>/seed-k``: five ensembles, each built without one training seed,
 so that the ensemble has a distribution over training seeds to compare like any method's (its
 members overlap, so its spread understates a fresh ensemble's). ``--all`` writes the one
