@@ -60,3 +60,9 @@ def test_the_ensemble_records_only_what_its_members_share(tmp_path: Path) -> Non
     assert metadata["decision_steps"] == 10 and metadata["recovery"] == "nav2"
     assert "eval" not in metadata and "run" not in metadata  # one member's, not the ensemble's
     assert len(metadata["ensemble_of"]) == 5
+
+
+def test_a_tabular_policy_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(CheckpointError, match="dqdwa: not a D3QN policy"):
+        write_ensembles(policies_dir() / "dqdwa", tmp_path / "out")
+    assert not (tmp_path / "out").exists()

@@ -55,7 +55,7 @@ def mean_network(networks: Sequence[DuelingQNetwork]) -> DuelingQNetwork:
     first, k = networks[0], len(networks)
     if any((n.obs_dim, n.n_actions, n.hidden) != (first.obs_dim, first.n_actions, first.hidden)
            for n in networks):  # fmt: skip
-        raise CheckpointError("seed_ensemble: the members' networks differ in size")
+        raise CheckpointError("the members' Q-networks differ in size; they cannot be averaged")
     wide = DuelingQNetwork(first.obs_dim, first.n_actions, [h * k for h in first.hidden])
     with torch.no_grad():
         for depth, layer in enumerate(_linears(wide)):
@@ -84,7 +84,10 @@ def write_ensemble(members: dict[int, Path], out: Path) -> Path:
     loaded = [load_checkpoint(path) for path in members.values()]
     agents = [agent for agent, _ in loaded]
     if not all(isinstance(a, D3QNAgent) for a in agents):
-        raise CheckpointError("seed_ensemble: only D3QN policies have Q-networks to average")
+        raise CheckpointError(
+            f"{next(iter(members.values())).parent}: not a D3QN policy; only D3QN policies have "
+            "Q-networks to average"
+        )
     first: D3QNAgent = agents[0]  # type: ignore[assignment]
     wide = mean_network([a.online for a in agents])  # type: ignore[union-attr]
     config = dataclasses.replace(first.config, hidden=wide.hidden)
@@ -110,6 +113,8 @@ def write_ensemble(members: dict[int, Path], out: Path) -> Path:
 
 def write_ensembles(folder: Path, out: Path, leave_one_out: bool = True) -> dict[int, Path]:
     """The ensembles of ``folder``'s seeds (module docstring), as out/seed-k."""
+    if not folder.is_dir():
+        raise CheckpointError(f"{folder}: no such policy folder")
     seeds = seed_dirs(folder)
     if len(seeds) < 2 + leave_one_out:
         raise CheckpointError(f"{folder}: needs {2 + leave_one_out} or more seed folders")
