@@ -57,11 +57,11 @@ def mean_network(networks: Sequence[DuelingQNetwork]) -> DuelingQNetwork:
            for n in networks):  # fmt: skip
         raise CheckpointError("the members' Q-networks differ in size; they cannot be averaged")
     wide = DuelingQNetwork(first.obs_dim, first.n_actions, [h * k for h in first.hidden])
+    member_layers = [_linears(net) for net in networks]
     with torch.no_grad():
-        for depth, layer in enumerate(_linears(wide)):
+        for depth, (layer, *sources) in enumerate(zip(_linears(wide), *member_layers, strict=True)):
             layer.weight.zero_()
-            for i, net in enumerate(networks):
-                src = _linears(net)[depth]
+            for i, src in enumerate(sources):
                 rows = slice(i * src.out_features, (i + 1) * src.out_features)
                 cols = (
                     slice(None)
@@ -82,14 +82,14 @@ def mean_network(networks: Sequence[DuelingQNetwork]) -> DuelingQNetwork:
 def write_ensemble(members: dict[int, Path], out: Path) -> Path:
     """The mean-Q checkpoint of the member seed folders, written to ``out`` (atomically)."""
     loaded = [load_checkpoint(path) for path in members.values()]
-    agents = [agent for agent, _ in loaded]
-    if not all(isinstance(a, D3QNAgent) for a in agents):
+    agents = [agent for agent, _ in loaded if isinstance(agent, D3QNAgent)]
+    if len(agents) != len(loaded):
         raise CheckpointError(
             f"{next(iter(members.values())).parent}: not a D3QN policy; only D3QN policies have "
             "Q-networks to average"
         )
-    first: D3QNAgent = agents[0]  # type: ignore[assignment]
-    wide = mean_network([a.online for a in agents])  # type: ignore[union-attr]
+    first = agents[0]
+    wide = mean_network([a.online for a in agents])
     config = dataclasses.replace(first.config, hidden=wide.hidden)
     ensemble = D3QNAgent(first.actions, config, first.obs_layout)
     ensemble.online.load_state_dict(wide.state_dict())
