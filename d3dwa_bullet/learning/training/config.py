@@ -93,6 +93,10 @@ class TrainConfig:
     """Horizon candidates T, s; None: the method's action set."""
     agent: D3QNConfig | DQDWAConfig | None = None
     """Agent hyper-parameters (D3QNConfig or DQDWAConfig); None: that class's defaults."""
+    init_policy: str | None = None
+    """A trained D3QN policy whose network this run starts from (a folder of ``seed-<k>/``:
+    the run's seed; one policy folder; or a shipped method's name); None: a fresh network,
+    the paper's. Beyond the paper, a two-stage noise curriculum (``warm_start``)."""
     eval_every: int = 25_000
     """Greedy evaluation every this many env steps (at the next episode end); 0: never."""
     eval_worlds: tuple[str, ...] = ("R1-style-s1", "R2-style-s1", "R3-style-s1")

@@ -89,6 +89,13 @@ def check_fields(config: TrainConfig) -> None:
     for name, ok, rule in checks:
         if not ok:
             raise ConfigError(f"TrainConfig.{name} must be {rule}, got {getattr(config, name)!r}")
+    if config.init_policy is not None and not (
+        isinstance(config.init_policy, str) and config.init_policy.strip()
+    ):
+        raise ConfigError(
+            f"TrainConfig.init_policy must be a policy folder or method name, "
+            f"got {config.init_policy!r}"
+        )
     if not config.worlds and not config.generators:
         raise ConfigError("TrainConfig: give at least one training world or generator style")
     if config.noise_probs and len(config.noise_probs) != len(config.noise):

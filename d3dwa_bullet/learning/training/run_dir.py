@@ -3,7 +3,8 @@
 Layout::
 
     <out>/config.json          the TrainConfig (reload it with load_train_config)
-    <out>/run.json             run name, package version, start time
+    <out>/run.json             run name, package version, start time (and a warm start's
+                               source folder and weights hash)
     <out>/episodes.csv         one row per training episode
     <out>/metrics.jsonl        TensorBoard-style records {"step", "tag", "value"} (charts/...,
                                losses/..., eval/..., curriculum/...) and the per-episode
@@ -28,6 +29,7 @@ from __future__ import annotations
 import json
 import shutil
 import time
+from collections.abc import Mapping
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -117,13 +119,14 @@ def write_config(out: Path, config: TrainConfig) -> None:
     (out / CONFIG_FILE).write_text(config_bytes(config).decode())
 
 
-def write_run_info(out: Path, config: TrainConfig) -> None:
+def write_run_info(out: Path, config: TrainConfig, extra: Mapping[str, Any] | None = None) -> None:
     """Write ``<out>/run.json``: run name ``D3DWA-v0__<method>__<seed>__<time>``, package
-    version and start time."""
+    version and start time, and ``extra`` (the network a warm start loaded)."""
     run = {
         "name": f"D3DWA-v0__{config.method}__{config.seed}__{int(time.time())}",
         "package_version": __version__,
         "started": datetime.now(UTC).isoformat(timespec="seconds"),
+        **(extra or {}),
     }
     (out / RUN_FILE).write_text(json.dumps(run, indent=2) + "\n")
 

@@ -26,6 +26,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import d3dwa_bullet.learning.training.warm_start as warm_start
 from d3dwa_bullet.backends import check_address, ray_session
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import BusyError, ConfigError, D3DWAError, TrainingError
@@ -80,6 +81,8 @@ def train_seeds(
     if not seeds:
         raise ConfigError("--seeds: no seed given")
     check_selection_rule(config)
+    for seed in () if resume else seeds:  # every seed's warm start fits before any trains
+        warm_start.source(replace(config, seed=seed))
     check_address(ray_address)
     with locked_dir(out):
         for seed in seeds:  # a seed another command trains is refused before any seed trains

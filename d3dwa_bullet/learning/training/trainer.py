@@ -35,6 +35,7 @@ from tqdm import tqdm
 import d3dwa_bullet.learning.training.checkpoints as checkpoints
 import d3dwa_bullet.learning.training.greedy_eval as greedy_eval
 import d3dwa_bullet.learning.training.run_dir as run_dir
+import d3dwa_bullet.learning.training.warm_start as warm_start
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import TrainingError
 from d3dwa_bullet.learning.agents.checkpoint import Agent
@@ -78,6 +79,8 @@ class Trainer:
                 resume = False
         else:
             config = run_dir.check_new_run(self.out, config)
+        self.warm_start = None if resume else warm_start.source(config)
+        """The network a new run starts from (``init_policy``), checked before any work."""
         self.config = config
         self.resume = resume
         self.progress = TrainingProgress.start(config)
@@ -142,8 +145,12 @@ class Trainer:
             run_dir.write_config(self.out, c)  # total_steps may have been extended
         else:
             agent = make_agent(c)
+            if self.warm_start is not None:
+                warm_start.apply(agent, self.warm_start)  # type: ignore[arg-type]
             run_dir.write_config(self.out, c)
-            run_dir.write_run_info(self.out, c)
+            run_dir.write_run_info(
+                self.out, c, {"init_policy": self.warm_start.record()} if self.warm_start else {}
+            )
         t_setup = time.perf_counter()
         if isinstance(agent, D3QNAgent):
             agent.optimizer  # noqa: B018  # built now: its one-off torch import is not an update's cost
