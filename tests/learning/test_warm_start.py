@@ -46,7 +46,9 @@ def test_each_seed_starts_from_its_own_seed_and_records_it(
     assert run["init_policy"] == {"folder": str(policies / "seed-1"), "weights_sha256": digest}
 
 
-def test_a_warm_started_run_learns_and_repeats_itself(seeds: tuple[str, Path], tmp_path: Path) -> None:
+def test_a_warm_started_run_learns_and_repeats_itself(
+    seeds: tuple[str, Path], tmp_path: Path
+) -> None:
     world, policies = seeds
     config = _config(world, total_steps=60, init_policy=str(policies / "seed-0"), seed=3)
     train(config, tmp_path / "a", progress=False)
