@@ -230,7 +230,8 @@ def improvement_table(
     """The records of :func:`improvement` as Markdown; labels: a's and b's column labels
     where they are not the methods' (e.g. one method with and without recovery)."""
     names = labels or {}
-    la, lb = names.get(a, method_label(a)), names.get(b, method_label(b))
+    # a label given is not parsed: one method on both sides is keyed 'random@10 [A]'
+    la, lb = (names[m] if m in names else method_label(m) for m in (a, b))
     paired = any("paired_p" in r for r in records)
     extra = " pairs | A better / worse | paired p (A > B) |" if paired else ""
     lines = [

@@ -13,6 +13,7 @@ from d3dwa_bullet.evaluation.seed_tables import (
     check_not_mixed,
     condition_table,
     improvement,
+    improvement_table,
     per_seed_table,
     run_of,
     seed_tables,
@@ -135,6 +136,17 @@ def test_improvement_needs_a_shared_task():
     rows = learned("TS1", [1]) + learned("TS2", [1], method="dwa3")
     with pytest.raises(ResultsError, match="share no"):
         improvement(rows, "d3dwa", "dwa3", groups)
+
+
+def test_a_held_method_against_itself_is_labelled_not_parsed():
+    # compare --against keys one method on both sides 'random@10 [A]' / '[B]' and labels them;
+    # the keys are not method names and must not be parsed as decision periods
+    a, b = "random@10 [A]", "random@10 [B]"
+    rows = [row(a, "TS1", None, 0, "goal"), row(b, "TS1", None, 0, "timeout")]
+    labels = {a: "Random held 10 steps (filter)", b: "Random held 10 steps"}
+    table = improvement_table(improvement(rows, a, b, groups), a, b, labels)
+    assert "P(Random held 10 steps (filter) > Random held 10 steps)" in table
+    assert "| all | 1 | 1 | 1 | 1.00 | [1.00, 1.00] |" in table
 
 
 def test_condition_table_averages_the_worlds_of_a_group_per_profile():
