@@ -30,8 +30,8 @@ INPUT_NAME = "obs"
 OUTPUT_NAME = "q"
 METADATA_KEYS = {
     "format_version": "d3dwa.format_version",  # ONNX_FORMAT_VERSION, decimal
-    "method": "d3dwa.method",  # the method it was exported for: d3dwa, d3dwa-pa, ...
-    "observation_kind": "d3dwa.observation.kind",  # paper | progress
+    "method": "d3dwa.method",  # the method it was exported for: d3dwa, d3dwa-dr, ...
+    "observation_kind": "d3dwa.observation.kind",  # paper | progress | history
     "observation_layout": "d3dwa.observation.layout",  # JSON list of entry names
     "obs_dim": "d3dwa.observation.dim",  # decimal, == len(layout)
     "actions": "d3dwa.actions",  # JSON of ActionSet.to_dict()

@@ -72,8 +72,9 @@ class TrainConfig:
     reward_scale: float | None = None
     """Multiplies every reward term; None: 0.01 for the D3QN methods, 1.0 for dqdwa."""
     observation: str | None = None
-    """What the agent reads: 'paper' (the 12-d state) or 'progress' (17-d,
-    docs/design.md#progress-observation); None: the method's (d3dwa-pa*: progress)."""
+    """What the agent reads, which must be the method's own: 'history' for d3dwa-history-dr
+    (docs/design.md#history-observation), 'paper' (the 12-d state) for the others; None: that.
+    ('progress', 17-d, is an env kind no registered method reads.)"""
     stall_penalty: float = 0.0
     """Reward added (before reward_scale) to a step ending more than ``stall_after`` s after
     the robot last made progress; 0: the paper's reward (docs/design.md#stall-penalty)."""
