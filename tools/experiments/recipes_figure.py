@@ -81,7 +81,7 @@ def draw(data: Mapping[str, Mapping[str, Mapping[str, float]]], out: Path, title
     labels = list(data)
     profiles = list(next(iter(data.values())))
     step = 0.7 / max(len(labels) - 1, 1)
-    fig, ax = plt.subplots(figsize=(2.2 + 1.9 * len(profiles), 4.0))
+    fig, ax = plt.subplots(figsize=(2.5 + len(profiles) * (0.9 + 0.25 * len(labels)), 4.0))
     lows = []
     for i, label in enumerate(labels):
         xs = [j - 0.35 + i * step for j in range(len(profiles))]
