@@ -14,7 +14,6 @@ or the bars would not be comparable: a profile where they differ is refused, nam
 from __future__ import annotations
 
 import json
-import os
 import sys
 from collections import defaultdict
 from collections.abc import Mapping, Sequence
@@ -24,6 +23,7 @@ from typing import Any
 from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.results import job_rows
 from d3dwa_bullet.evaluation.sweep import profile_of
+from d3dwa_bullet.io import atomic_savefig
 from tools.entry import ToolParser, tool_main
 from tools.experiments.headroom import success
 
@@ -105,11 +105,10 @@ def draw(data: Mapping[str, Mapping[str, Mapping[str, float]]], out: Path, title
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.tmp.png")
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    os.replace(tmp, out)
-    return out
+    try:
+        return atomic_savefig(fig, out, dpi=110)
+    finally:
+        plt.close(fig)
 
 
 @tool_main
