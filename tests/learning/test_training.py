@@ -399,3 +399,19 @@ def test_a_recovery_run_trains_and_validates_inside_the_layer(tiny: str, tmp_pat
     assert "recovery layer 'nav2'" in make_controller("d3dwa", policy_path=out / "policy").source
     with pytest.raises(ConfigError, match="TrainConfig.recovery.*'spin'"):
         _config(tiny, recovery="spin")
+
+
+def test_a_filtered_run_trains_and_validates_behind_the_filter(tiny: str, tmp_path: Path) -> None:
+    """Beyond the paper: scan_filter puts the filter chain between the lidar and the agent in
+    its training envs and its greedy evaluations; config.json and the policy's metadata keep
+    it; 'none' is the paper's."""
+    config = _config(tiny, total_steps=30, scan_filter="speckle+median")
+    assert make_env(config).episode_config.scan_filter == "speckle+median"
+    assert make_env(config, worlds=("R1-style-s1",)).episode_config.scan_filter == "speckle+median"
+    assert make_env(_config(tiny, total_steps=30)).episode_config.scan_filter == "none"
+    out = tmp_path / "run"
+    train(config, out, progress=False)
+    assert load_train_config(out / "config.json").scan_filter == "speckle+median"
+    assert load_checkpoint(out / "policy")[1]["metadata"]["scan_filter"] == "speckle+median"
+    with pytest.raises(ConfigError, match="TrainConfig.scan_filter.*'spek'"):
+        _config(tiny, scan_filter="spek")

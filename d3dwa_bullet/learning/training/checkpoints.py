@@ -67,6 +67,7 @@ def run_metadata(
         "observation": c.observation,
         "decision_steps": c.decision_steps,  # a policy holds each action this many steps
         "recovery": c.recovery,  # the layer it trained inside (run it with --recovery so)
+        "scan_filter": c.scan_filter,  # the filter it trained behind (run it with --scan-filter so)
         **dict(extra or {}),
     }
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
+from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent, DQDWAConfig
@@ -88,6 +89,10 @@ class TrainConfig:
     recovery: str = "none"
     """Recovery layer in training and greedy evaluation: 'none' (the paper's) or 'nav2'
     (beyond the paper: evaluate such a policy with ``--recovery nav2``; design.md#recovery)."""
+    scan_filter: str = "none"
+    """Scan filter chain in training and greedy evaluation (``--scan-filter``'s names): "none"
+    (the paper's stack) or, beyond the paper, e.g. "speckle+median" (docs/design.md#scan-filter).
+    A policy trained with a filter is driven only with the same one (``policy_terms``)."""
     weights: tuple[float, ...] | None = None
     """Weight candidates W; None: the method's action set."""
     horizons: tuple[float, ...] | None = None
@@ -267,6 +272,7 @@ def make_env(
             reward_params=config.reward_params,
             observation=str(config.observation),
             recovery=recovery_params(config.recovery),
+            episode_config=EpisodeConfig(scan_filter=config.scan_filter),
         )
     return D3DWAEnv(
         worlds=config.worlds,
@@ -281,6 +287,7 @@ def make_env(
         observation=str(config.observation),
         decision_steps=config.decision_steps,
         recovery=recovery_params(config.recovery),
+        episode_config=EpisodeConfig(scan_filter=config.scan_filter),
     )
 
 

@@ -26,6 +26,7 @@ from d3dwa_bullet.limits import (
     is_decision_period,
 )
 from d3dwa_bullet.params import RECOVERY_KINDS
+from d3dwa_bullet.planning.scan_filter import SCAN_FILTERS
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
 from d3dwa_bullet.world.registry import world_names
 from randomization.profiles import load_profile
@@ -84,6 +85,11 @@ def check_fields(config: TrainConfig) -> None:
         ),
         ("vector", config.vector in VECTOR_MODES, f"one of {VECTOR_MODES}"),
         ("recovery", config.recovery in RECOVERY_KINDS, f"one of {RECOVERY_KINDS}"),
+        (
+            "scan_filter",
+            isinstance(config.scan_filter, str) and config.scan_filter in SCAN_FILTERS,
+            f"one of {tuple(SCAN_FILTERS)}",
+        ),
         ("noise", bool(config.noise), "non-empty ('none' for noise-free)"),
     ]
     for name, ok, rule in checks:
