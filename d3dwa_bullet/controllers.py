@@ -60,7 +60,7 @@ def make_controller(
     # reference methods and an ONNX policy (a robot without torch) never need
     from d3dwa_bullet.learning.agents.checkpoint import META_FILE
     from d3dwa_bullet.learning.agents.policy import load_policy
-    from d3dwa_bullet.learning.agents.policy_terms import checkpoint_terms
+    from d3dwa_bullet.learning.agents.policy_terms import checkpoint_scan_filter, checkpoint_terms
 
     path, source = one_policy(name, policy_path)
     kind = method_observation(name)
@@ -68,7 +68,8 @@ def make_controller(
         path, expected_actions=LEARNED[name], expected_observation=(kind, f"method {name!r}")
     )
     hold, trained_in = checkpoint_terms(meta, str(path / META_FILE))
-    return _learned(name, policy, actions, source, hold, trained_in)
+    behind = checkpoint_scan_filter(meta, str(path / META_FILE))
+    return _learned(name, policy, actions, source, hold, trained_in, behind)
 
 
 def refuse_policy(
@@ -111,23 +112,36 @@ def _onnx_controller(name: str, policy_path: str | Path | None, onnx: str | Path
         onnx, expected_actions=LEARNED[name], expected_observation=(kind, f"method {name!r}")
     )
     source = f"{onnx} (ONNX, exported for {meta['method']})"
-    return _learned(name, policy, actions, source, meta["decision_steps"], meta["recovery"])
+    return _learned(
+        name, policy, actions, source, meta["decision_steps"], meta["recovery"], meta["scan_filter"]
+    )
 
 
 def _learned(
-    name: str, policy: object, actions: ActionSet, source: str, hold: int, trained_in: str
+    name: str,
+    policy: object,
+    actions: ActionSet,
+    source: str,
+    hold: int,
+    trained_in: str,
+    behind: str = "none",
 ) -> Controller:
     """The controller of a learned method's loaded policy (torch or ONNX, the same way): it
     holds each action for the policy's decision period, and its source notes that period
-    and the recovery layer the policy trained inside, which a run must ask for itself."""
+    and the recovery layer the policy trained inside, which a run must ask for itself. It
+    carries the scan filter the policy trained behind (``behind``), which whatever drives it
+    checks against its own (``check_driven_filter``)."""
     if hold > 1:
         source += f" (one decision every {hold} control steps)"
     if trained_in != "none":
         source += f" (trained inside the recovery layer {trained_in!r}: run with --recovery so)"
+    if behind != "none":
+        source += f" (trained behind the scan filter {behind!r})"
     kind = method_observation(name)
     return Controller(
-        name, policy=policy, actions=actions, source=source, observation=kind, hold=hold
-    )
+        name, policy=policy, actions=actions, source=source, observation=kind, hold=hold,
+        scan_filter=behind,
+    )  # fmt: skip
 
 
 def one_policy(name: str, policy_path: str | Path | None = None) -> tuple[Path, str]:

@@ -24,7 +24,7 @@ from d3dwa_bullet.planning.observation_kinds import make_observer, observation_l
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult, plan
 from d3dwa_bullet.planning.progress import NoProgressClock
 from d3dwa_bullet.planning.recovery import Recovery, RecoveryCommand
-from d3dwa_bullet.planning.scan_filter import ScanFilter
+from d3dwa_bullet.planning.scan_filter import ScanFilter, check_driven_filter
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.scan import LaserScan, scan_points_body
 from d3dwa_bullet.sim.simulator import Simulator
@@ -324,6 +324,7 @@ def run_episode(
 
     The controller is reset with the episode seed first (:meth:`Controller.reset`), so a
     method that draws its actions (``random``) draws the same ones for the same seed."""
+    check_driven_filter(controller.scan_filter, config.scan_filter, f"the {controller.name} policy")
     controller.reset(seed)
     with Episode(world, seed, noise, noise_name, config, gui, controller.observation) as ep:
         while True:

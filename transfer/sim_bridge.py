@@ -59,7 +59,7 @@ from d3dwa_bullet.planning.observation import goal_in_body
 from d3dwa_bullet.planning.observation_kinds import Observer, make_observer, observation_layout
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult
 from d3dwa_bullet.planning.recovery import RecoveryCommand
-from d3dwa_bullet.planning.scan_filter import ScanFilter
+from d3dwa_bullet.planning.scan_filter import ScanFilter, check_driven_filter
 from d3dwa_bullet.sim.estimator import EstimatorConfig, PoseEstimator
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.scan import scan_points_body
@@ -151,6 +151,9 @@ class ReplayPipeline:
             raise ConfigError(
                 f"unknown estimator {estimator!r}: choose one of {', '.join(ESTIMATORS)}"
             )
+        check_driven_filter(
+            controller.scan_filter, config.scan_filter, f"the {controller.name} policy"
+        )
         self.seed = seed
         controller.reset(seed)
         self.controller = controller

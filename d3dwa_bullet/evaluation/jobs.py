@@ -28,6 +28,7 @@ from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig, EpisodeResult, run_episode
 from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.evaluation.policy_runs import check_scan_filters
 from d3dwa_bullet.evaluation.results import (
     CSV_FIELDS,
     DERIVED_PAGES,
@@ -181,6 +182,7 @@ def _evaluate(
     if recovery != "none":
         settings["recovery"] = recovery
     check_distinct(jobs)
+    check_scan_filters(((j.method, j.policy) for j in jobs), config.scan_filter)
     unique: dict[Key, Job] = {}
     for j in jobs:  # a world or seed named twice is one episode, not two rows
         unique.setdefault(j.key, j)

@@ -16,17 +16,18 @@ new training).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from d3dwa_bullet.controllers import default_policy_path
+from d3dwa_bullet.controllers import default_policy_path, one_policy
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.evaluation.results import differences
-from d3dwa_bullet.learning.agents.policy_terms import folder_terms
+from d3dwa_bullet.learning.agents.policy_terms import checkpoint_scan_filter, folder_terms
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.method_specs import needs_policy
+from d3dwa_bullet.planning.scan_filter import check_driven_filter
 from d3dwa_bullet.seed_dirs import parse_seeds, seed_dirs, seed_of
 
 ALL = "all"
@@ -153,3 +154,23 @@ def _data_digest(folder: Path) -> str:
         (files[f] for f in POLICY_DATA_FILES if isinstance(files, dict) and f in files), {}
     )
     return str(entry.get("sha256", "")) if isinstance(entry, dict) else ""
+
+
+def check_scan_filters(policies: Iterable[tuple[str, str | None]], scan_filter: str) -> None:
+    """ConfigError (one line) before any episode runs if a (method, policy folder) of
+    ``policies`` (None: the shipped one) was trained behind a scan filter other than this
+    run's ``scan_filter`` (``check_driven_filter``); a policy trained without one runs behind
+    any. Read from each folder's meta.json, once per folder."""
+    seen: set[tuple[str, str | None]] = set()
+    for method, policy in policies:
+        if not needs_policy(method) or (method, policy) in seen:
+            continue
+        seen.add((method, policy))
+        folder, _ = one_policy(method, policy)
+        meta_file = folder / "meta.json"
+        if not meta_file.is_file():  # a Q-table or a missing policy: its loader says so
+            continue
+        meta = load_json(meta_file, CheckpointError)
+        if isinstance(meta, dict):
+            trained = checkpoint_scan_filter(meta, str(meta_file))
+            check_driven_filter(trained, scan_filter, f"{method} ({folder})")

@@ -47,6 +47,9 @@ class Controller:
     hold: int = 1
     """Control steps each chosen action is kept for: a policy trained with ``decision_steps``
     k > 1 (beyond the paper, docs/design.md#decision-period) chooses every k steps."""
+    scan_filter: str = "none"
+    """The scan filter its policy trained behind (beyond the paper, docs/design.md#scan-filter):
+    whatever drives it checks its own filter is this one (``check_driven_filter``)."""
     _rng: np.random.Generator | None = field(default=None, init=False, repr=False)
     _held: tuple[int, int] | None = field(default=None, init=False, repr=False)
 

@@ -128,3 +128,15 @@ def check_scan_filter(name: str) -> str:
     if name not in SCAN_FILTERS:
         raise ConfigError(f"unknown scan filter {name!r}; choose one of {', '.join(SCAN_FILTERS)}")
     return name
+
+
+def check_driven_filter(trained: str, running: str, policy: str) -> None:
+    """ConfigError (one line) when a policy trained behind the filter ``trained`` would be
+    driven behind another one, ``running``: it learned on filtered scans, and the raw ones
+    are not its input. A policy trained without a filter (the paper's) may be driven behind
+    any (the filter applies to every method alike). ``policy`` names it in the message."""
+    if trained != "none" and running != trained:
+        raise ConfigError(
+            f"{policy} was trained behind the scan filter {trained!r}; drive it with "
+            f"--scan-filter {trained} (this run has {running!r})"
+        )

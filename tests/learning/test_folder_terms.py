@@ -60,6 +60,7 @@ def test_agreeing_files_give_the_terms(tmp_path):
         "decision_steps": 10,
         "recovery": "nav2",
         "observation": "paper",
+        "scan_filter": "none",
     }
     assert make_controller("d3dwa", policy_path=folder).hold == 10
 

@@ -12,13 +12,20 @@ from d3dwa_bullet.planning.observation_kinds import observation_layout
 
 
 def held_checkpoint(
-    directory: Path, decision_steps: object = 10, recovery: object = "nav2", seed: int = 1
+    directory: Path,
+    decision_steps: object = 10,
+    recovery: object = "nav2",
+    seed: int = 1,
+    scan_filter: object = None,
 ) -> Path:
     """An untrained ``d3dwa`` network (hidden 16) saved with metadata ``decision_steps`` and
-    ``recovery`` (any JSON value, so tests can record bad ones). Seed 1's greedy action
-    changes several times in R1's first 3 s, so holding it changes what the robot does."""
+    ``recovery`` (any JSON value, so tests can record bad ones), and ``scan_filter`` unless
+    None (then unrecorded, as before filters were). Seed 1's greedy action changes several
+    times in R1's first 3 s, so holding it changes what the robot does."""
     agent = D3QNAgent(
         ACTIONS_FULL, D3QNConfig(hidden=(16,), seed=seed), observation_layout("paper")
     )
     metadata = {"decision_steps": decision_steps, "recovery": recovery}
+    if scan_filter is not None:
+        metadata["scan_filter"] = scan_filter
     return save_checkpoint(directory, agent, metadata=metadata, method="d3dwa")

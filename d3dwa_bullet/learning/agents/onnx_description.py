@@ -1,7 +1,8 @@
 """What an exported ONNX policy says about itself: its ``metadata_props`` (string keys
 ``d3dwa.*``, ``METADATA_KEYS``), written by the exporter (``metadata_props``) and read back
 and checked by every runner (``read_metadata``): method, observation kind and layout, action
-set, decision period and recovery layer (``policy_terms``), source and format version."""
+set, decision period, recovery layer and scan filter (``policy_terms``), source and format
+version."""
 
 from __future__ import annotations
 
@@ -13,19 +14,25 @@ from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.learning.agents.policy_terms import (
     DEFAULT_DECISION_STEPS,
     DEFAULT_RECOVERY,
+    DEFAULT_SCAN_FILTER,
     decision_period,
     trained_recovery,
+    trained_scan_filter,
 )
 from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.observation_kinds import LAYOUTS, observation_layout
 
 ONNX_FORMAT_VERSION = 2
-"""Version of the metadata written here. Version 2 added the decision period and the recovery
-layer: a runner from before them reads only version 1, so it refuses a new file in one line
-instead of driving a held policy every step."""
-READ_VERSIONS = (1, 2)
-"""Versions this runner reads; in a version-1 file the OPTIONAL_FIELDS are absent."""
+"""Version of the metadata written here for a policy trained without a scan filter. Version 2
+added the decision period and the recovery layer: a runner from before them reads only
+version 1, so it refuses a new file in one line instead of driving a held policy every step."""
+FILTERED_FORMAT_VERSION = 3
+"""Version written for a policy trained behind a scan filter (version 3 added the filter): a
+runner from before it refuses such a file in one line instead of driving it on raw scans,
+while files without a filter stay readable by version-2 runners."""
+READ_VERSIONS = (1, 2, 3)
+"""Versions this runner reads; a file lacks the OPTIONAL_FIELDS its version predates."""
 INPUT_NAME = "obs"
 OUTPUT_NAME = "q"
 METADATA_KEYS = {
@@ -38,11 +45,18 @@ METADATA_KEYS = {
     "source": "d3dwa.source",  # JSON: the checkpoint's digest, steps, config, run
     "decision_steps": "d3dwa.decision_steps",  # decimal: control steps each action is held
     "recovery": "d3dwa.recovery",  # the recovery layer it trained inside: none | nav2
+    "scan_filter": "d3dwa.scan_filter",  # the scan filter it trained behind: none | median | ...
 }
 """Field -> metadata_props key of an exported policy."""
-OPTIONAL_FIELDS = {"decision_steps": str(DEFAULT_DECISION_STEPS), "recovery": DEFAULT_RECOVERY}
-"""Fields version-1 exports lack -> the value their absence means (the paper's agent); a
-version-2 file must hold them."""
+OPTIONAL_FIELDS = {
+    "decision_steps": str(DEFAULT_DECISION_STEPS),
+    "recovery": DEFAULT_RECOVERY,
+    "scan_filter": DEFAULT_SCAN_FILTER,
+}
+"""Fields older exports lack -> the value their absence means (the paper's agent)."""
+ADDED_IN = {"decision_steps": 2, "recovery": 2, "scan_filter": 3}
+"""The format version that added each optional field: a file of that version or later must
+hold it."""
 
 
 def metadata_props(
@@ -52,13 +66,17 @@ def metadata_props(
     source: Mapping[str, Any],
     decision_steps: int = DEFAULT_DECISION_STEPS,
     recovery: str = DEFAULT_RECOVERY,
+    scan_filter: str = DEFAULT_SCAN_FILTER,
 ) -> dict[str, str]:
     """The metadata_props of a policy for ``method`` reading observation ``kind``, trained
-    with ``decision_steps`` inside ``recovery`` (the exporter's half of the description
-    ``read_metadata`` checks)."""
+    with ``decision_steps`` inside ``recovery`` behind ``scan_filter`` (the exporter's half of
+    the description ``read_metadata`` checks)."""
     layout = observation_layout(kind)
-    return {
-        METADATA_KEYS["format_version"]: str(ONNX_FORMAT_VERSION),
+    filtered = scan_filter != DEFAULT_SCAN_FILTER
+    props = {
+        METADATA_KEYS["format_version"]: str(
+            FILTERED_FORMAT_VERSION if filtered else ONNX_FORMAT_VERSION
+        ),
         METADATA_KEYS["method"]: method,
         METADATA_KEYS["observation_kind"]: kind,
         METADATA_KEYS["observation_layout"]: json.dumps(list(layout)),
@@ -68,12 +86,15 @@ def metadata_props(
         METADATA_KEYS["decision_steps"]: str(decision_steps),
         METADATA_KEYS["recovery"]: recovery,
     }
+    if filtered:
+        props[METADATA_KEYS["scan_filter"]] = scan_filter
+    return props
 
 
 def read_metadata(props: Mapping[str, str], where: str) -> dict[str, Any]:
     """Parse and check metadata_props: {format_version, method, observation: {kind, layout,
-    dim}, actions: ActionSet, source, decision_steps: int, recovery: str} (the last two
-    OPTIONAL_FIELDS). CheckpointError naming ``where``, the key and a bad value."""
+    dim}, actions: ActionSet, source, decision_steps: int, recovery: str, scan_filter: str}
+    (the last three OPTIONAL_FIELDS). CheckpointError naming ``where``, the key and a bad value."""
     version_key = METADATA_KEYS["format_version"]
     if version_key not in props:
         ours = sorted(k for k in props if k.startswith("d3dwa."))
@@ -89,7 +110,7 @@ def read_metadata(props: Mapping[str, str], where: str) -> dict[str, Any]:
             f"versions {', '.join(versions)}"
         )
     version = versions[props[version_key]]
-    optional = OPTIONAL_FIELDS if version == 1 else {}
+    optional = {k for k in OPTIONAL_FIELDS if ADDED_IN[k] > version}
     missing = [v for k, v in METADATA_KEYS.items() if k not in optional and v not in props]
     if missing:
         raise CheckpointError(f"{where}: metadata lacks {missing}")
@@ -122,6 +143,8 @@ def read_metadata(props: Mapping[str, str], where: str) -> dict[str, Any]:
     steps_key, recovery_key = METADATA_KEYS["decision_steps"], METADATA_KEYS["recovery"]
     steps = props.get(steps_key, OPTIONAL_FIELDS["decision_steps"])
     recovery = props.get(recovery_key, OPTIONAL_FIELDS["recovery"])
+    filter_key = METADATA_KEYS["scan_filter"]
+    behind = props.get(filter_key, OPTIONAL_FIELDS["scan_filter"])
     return {
         "format_version": version,
         "method": props[METADATA_KEYS["method"]],
@@ -130,4 +153,5 @@ def read_metadata(props: Mapping[str, str], where: str) -> dict[str, Any]:
         "source": source if isinstance(source, dict) else {},
         "decision_steps": decision_period(steps, f"{where}: metadata {steps_key}"),
         "recovery": trained_recovery(recovery, f"{where}: metadata {recovery_key}"),
+        "scan_filter": trained_scan_filter(behind, f"{where}: metadata {filter_key}"),
     }

@@ -1,14 +1,16 @@
-"""The terms a trained policy is driven on, as its files record them: its decision period
-and the recovery layer it trained inside.
+"""The terms a trained policy is driven on, as its files record them: its decision period,
+the recovery layer it trained inside and the scan filter it trained behind.
 
 A policy trained with ``decision_steps`` k > 1 (beyond the paper, docs/design.md#decision-period)
 chose once per k control steps, so whatever drives it must hold each action as long
 (``planning.controller.Controller.hold``); one trained inside a recovery layer (docs/design.md#recovery)
 met the states that layer leaves it, so a run without it is not the run it learned for.
-Both are read from a checkpoint's meta.json (``metadata.decision_steps``,
-``metadata.recovery``) and from an exported ONNX file's metadata (``onnx_policy``), and
-checked the same way here, so a torch checkpoint and its export are driven alike. An
-absent value is the paper's: period 1, recovery ``none``.
+One trained behind a scan filter (docs/design.md#scan-filter) learned on filtered scans, so
+it is driven only behind the same filter (``planning.scan_filter.check_driven_filter``).
+All are read from a checkpoint's meta.json (``metadata.decision_steps``,
+``metadata.recovery``, ``metadata.scan_filter``) and from an exported ONNX file's metadata
+(``onnx_policy``), and checked the same way here, so a torch checkpoint and its export are
+driven alike. An absent value is the paper's: period 1, recovery ``none``, filter ``none``.
 
 Pure: no torch, no onnxruntime (the ONNX runner imports this on a robot without torch).
 """
@@ -24,11 +26,14 @@ from d3dwa_bullet.errors import CheckpointError
 from d3dwa_bullet.limits import MAX_DECISION_STEPS, is_decision_period
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.params import RECOVERY_KINDS
+from d3dwa_bullet.planning.scan_filter import SCAN_FILTERS
 
 DEFAULT_DECISION_STEPS = 1
 """The paper's agent: one decision every control step."""
 DEFAULT_RECOVERY = RECOVERY_KINDS[0]
 """No recovery layer (the paper's stack)."""
+DEFAULT_SCAN_FILTER = "none"
+"""No scan filter (the paper's stack)."""
 _SHOWN = 60  # characters of a bad value kept in a message
 
 
@@ -60,6 +65,25 @@ def trained_recovery(value: object, where: str) -> str:
     )
 
 
+def trained_scan_filter(value: object, where: str) -> str:
+    """A recorded scan filter as one of SCAN_FILTERS; CheckpointError (one line, ``where``
+    first) for anything else."""
+    if isinstance(value, str) and value in SCAN_FILTERS:
+        return value
+    raise CheckpointError(
+        f"{where} is {_shown(value)}, expected one of {', '.join(SCAN_FILTERS)} "
+        "(the scan filter the policy trained behind)"
+    )
+
+
+def checkpoint_scan_filter(meta: Mapping[str, Any], where: str) -> str:
+    """The scan filter a checkpoint's meta.json ``meta`` records (absent: the paper's
+    ``none``); CheckpointError, one line, for a malformed one."""
+    extra = meta.get("metadata", {})
+    value = extra.get("scan_filter", DEFAULT_SCAN_FILTER) if isinstance(extra, Mapping) else None
+    return trained_scan_filter(value, f"{where}: metadata.scan_filter")
+
+
 def checkpoint_terms(meta: Mapping[str, Any], where: str) -> tuple[int, str]:
     """(decision period, recovery) of a checkpoint's meta.json ``meta`` (its ``metadata``
     block; absent values are the paper's). where: the meta.json file, for messages. A
@@ -89,14 +113,14 @@ def _shown(value: object) -> str:
     return text if len(text) <= _SHOWN else f"{text[: _SHOWN - 3]}..."
 
 
-TERMS = ("decision_steps", "recovery", "observation")
+TERMS = ("decision_steps", "recovery", "observation", "scan_filter")
 """What a checkpoint's meta.json (``metadata``) and its run's config.json both record of the
 terms the policy is driven on; they must agree."""
 
 
 def folder_terms(folder: str | os.PathLike[str]) -> dict[str, object]:
     """The terms a checkpoint folder's policy is driven on, {decision_steps, recovery,
-    observation (None when unrecorded)}, read from its meta.json and checked against its
+    observation (None when unrecorded), scan_filter}, read from its meta.json and checked against its
     config.json when it has one: CheckpointError, one line naming both files, the term and
     both values, when they disagree or either is malformed."""
     root = Path(folder)
@@ -110,6 +134,7 @@ def folder_terms(folder: str | os.PathLike[str]) -> dict[str, object]:
         "decision_steps": period,
         "recovery": recovery,
         "observation": extra.get("observation"),
+        "scan_filter": checkpoint_scan_filter(meta, str(meta_file)),
     }
     if not config_file.is_file():
         return terms
@@ -124,6 +149,9 @@ def folder_terms(folder: str | os.PathLike[str]) -> dict[str, object]:
             config.get("recovery", DEFAULT_RECOVERY), f"{config_file}: recovery"
         ),
         "observation": config.get("observation"),
+        "scan_filter": trained_scan_filter(
+            config.get("scan_filter", DEFAULT_SCAN_FILTER), f"{config_file}: scan_filter"
+        ),
     }
     for name in TERMS:
         mine, theirs = terms[name], recorded[name]
