@@ -60,15 +60,14 @@ def make_controller(
     # reference methods and an ONNX policy (a robot without torch) never need
     from d3dwa_bullet.learning.agents.checkpoint import META_FILE
     from d3dwa_bullet.learning.agents.policy import load_policy
-    from d3dwa_bullet.learning.agents.policy_terms import checkpoint_scan_filter, checkpoint_terms
+    from d3dwa_bullet.learning.agents.policy_terms import checkpoint_terms
 
     path, source = one_policy(name, policy_path)
     kind = method_observation(name)
     policy, actions, meta = load_policy(
         path, expected_actions=LEARNED[name], expected_observation=(kind, f"method {name!r}")
     )
-    hold, trained_in = checkpoint_terms(meta, str(path / META_FILE))
-    behind = checkpoint_scan_filter(meta, str(path / META_FILE))
+    hold, trained_in, behind = checkpoint_terms(meta, str(path / META_FILE))
     return _learned(name, policy, actions, source, hold, trained_in, behind)
 
 

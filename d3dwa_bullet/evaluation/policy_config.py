@@ -62,7 +62,7 @@ def policy_config_note(run: PolicyRun, recovery: str, policy: str | None) -> str
         return None
     if policy is None:  # the layer its meta.json records: no config to build at start-up
         meta_file = Path(run.policy) / "meta.json"
-        _, trained_in = checkpoint_terms(load_json(meta_file, CheckpointError), str(meta_file))
+        _, trained_in, _ = checkpoint_terms(load_json(meta_file, CheckpointError), str(meta_file))
         layer = _layer(trained_in, recovery)
         shipped = f"The shipped `{run.method}`: trained under `configs/{run.method}.yaml`."
         return f"{shipped}{layer}" if layer else None

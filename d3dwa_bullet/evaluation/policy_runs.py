@@ -24,7 +24,7 @@ from typing import Any
 from d3dwa_bullet.controllers import default_policy_path, one_policy
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.evaluation.results import differences
-from d3dwa_bullet.learning.agents.policy_terms import checkpoint_scan_filter, folder_terms
+from d3dwa_bullet.learning.agents.policy_terms import folder_terms
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.method_specs import needs_policy
 from d3dwa_bullet.planning.scan_filter import check_driven_filter
@@ -160,17 +160,14 @@ def check_scan_filters(policies: Iterable[tuple[str, str | None]], scan_filter: 
     """ConfigError (one line) before any episode runs if a (method, policy folder) of
     ``policies`` (None: the shipped one) was trained behind a scan filter other than this
     run's ``scan_filter`` (``check_driven_filter``); a policy trained without one runs behind
-    any. Read from each folder's meta.json, once per folder."""
+    any. Read with ``folder_terms``, once per folder."""
     seen: set[tuple[str, str | None]] = set()
     for method, policy in policies:
         if not needs_policy(method) or (method, policy) in seen:
             continue
         seen.add((method, policy))
         folder, _ = one_policy(method, policy)
-        meta_file = folder / "meta.json"
-        if not meta_file.is_file():  # a Q-table or a missing policy: its loader says so
+        if not (folder / "meta.json").is_file():  # a bare Q-table: its loader says what it lacks
             continue
-        meta = load_json(meta_file, CheckpointError)
-        if isinstance(meta, dict):
-            trained = checkpoint_scan_filter(meta, str(meta_file))
-            check_driven_filter(trained, scan_filter, f"{method} ({folder})")
+        trained = folder_terms(folder)["scan_filter"]
+        check_driven_filter(str(trained), scan_filter, f"{method} ({folder})")

@@ -54,7 +54,7 @@ from d3dwa_bullet.learning.agents.onnx_policy import (
     onnx_policy_from_bytes,
     sample_observations,
 )
-from d3dwa_bullet.learning.agents.policy_terms import checkpoint_scan_filter, checkpoint_terms
+from d3dwa_bullet.learning.agents.policy_terms import checkpoint_terms
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.observation_kinds import kind_of_layout, observation_layout
 from d3dwa_bullet.resources import policies_dir
@@ -191,8 +191,7 @@ def export_onnx(
             "(paper, progress); no controller could feed it"
         )
     # the terms it is driven on travel with it: a runner holds each action as long
-    decision_steps, recovery = checkpoint_terms(meta, str(root / META_FILE))
-    scan_filter = checkpoint_scan_filter(meta, str(root / META_FILE))
+    decision_steps, recovery, scan_filter = checkpoint_terms(meta, str(root / META_FILE))
     method = method or str(meta["method"])
     network = agent.online.eval()
     props = metadata_props(

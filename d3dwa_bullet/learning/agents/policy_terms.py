@@ -76,24 +76,16 @@ def trained_scan_filter(value: object, where: str) -> str:
     )
 
 
-def checkpoint_scan_filter(meta: Mapping[str, Any], where: str) -> str:
-    """The scan filter a checkpoint's meta.json ``meta`` records (absent: the paper's
-    ``none``); CheckpointError, one line, for a malformed one."""
-    extra = meta.get("metadata", {})
-    value = extra.get("scan_filter", DEFAULT_SCAN_FILTER) if isinstance(extra, Mapping) else None
-    return trained_scan_filter(value, f"{where}: metadata.scan_filter")
-
-
-def checkpoint_terms(meta: Mapping[str, Any], where: str) -> tuple[int, str]:
-    """(decision period, recovery) of a checkpoint's meta.json ``meta`` (its ``metadata``
-    block; absent values are the paper's). where: the meta.json file, for messages. A
+def checkpoint_terms(meta: Mapping[str, Any], where: str) -> tuple[int, str, str]:
+    """(decision period, recovery, scan filter) of a checkpoint's meta.json ``meta`` (its
+    ``metadata`` block; absent values are the paper's). where: the meta.json file, for messages. A
     ``metadata`` that is not a mapping is refused: read as empty, it would drive a held
     policy every step without a word."""
     extra = meta.get("metadata", {})
     if not isinstance(extra, Mapping):
         raise CheckpointError(
             f"{where}: metadata is {_shown(extra)}, expected a mapping (it records the "
-            "policy's decision period and recovery layer)"
+            "policy's decision period, recovery layer and scan filter)"
         )
     return (
         decision_period(
@@ -101,6 +93,9 @@ def checkpoint_terms(meta: Mapping[str, Any], where: str) -> tuple[int, str]:
             f"{where}: metadata.decision_steps",
         ),
         trained_recovery(extra.get("recovery", DEFAULT_RECOVERY), f"{where}: metadata.recovery"),
+        trained_scan_filter(
+            extra.get("scan_filter", DEFAULT_SCAN_FILTER), f"{where}: metadata.scan_filter"
+        ),
     )
 
 
@@ -128,13 +123,13 @@ def folder_terms(folder: str | os.PathLike[str]) -> dict[str, object]:
     meta = load_json(meta_file, CheckpointError, "checkpoint meta.json")
     if not isinstance(meta, Mapping):
         raise CheckpointError(f"{meta_file}: expected a JSON object, got {type(meta).__name__}")
-    period, recovery = checkpoint_terms(meta, str(meta_file))
+    period, recovery, behind = checkpoint_terms(meta, str(meta_file))
     extra = meta.get("metadata", {})
     terms: dict[str, object] = {
         "decision_steps": period,
         "recovery": recovery,
         "observation": extra.get("observation"),
-        "scan_filter": checkpoint_scan_filter(meta, str(meta_file)),
+        "scan_filter": behind,
     }
     if not config_file.is_file():
         return terms
