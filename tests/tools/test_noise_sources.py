@@ -39,7 +39,7 @@ def test_a_lidar_source_takes_only_its_own_fields(tmp_path):
 
 
 def sweep_dir(tmp_path, rows):
-    (tmp_path / "logs").mkdir()
+    (tmp_path / "logs").mkdir(parents=True)
     with appending_rows(tmp_path, CSV_FIELDS + ("axis", "level", "layout")) as append:
         for r in rows:
             r = dict(time_s=1.0, tl_m=0.0, pd_rad=0.0, min_clearance_m=0.1, steps=10,
@@ -72,6 +72,23 @@ def test_headroom_plays_the_method_each_profile_names(tmp_path, capsys):
     assert "no rows of 'dwa1' under profile 'harsh'" in capsys.readouterr().err
     assert headroom.main([str(out), "--switch", "harsh"]) == 2
     assert "'harsh' is not PROFILE=METHOD" in capsys.readouterr().err
+
+
+def test_the_paired_headroom_tests_the_switch_against_every_method(tmp_path, capsys):
+    wins = ["goal"] * 6
+    rows = rows_for("dwa3", "harsh", wins) + rows_for("random@10", "harsh", ["timeout"] * 6)
+    rows += rows_for("d3dwa", "harsh", ["goal", "timeout"] * 3, 0)
+    out = sweep_dir(tmp_path / "a", rows)
+    other = sweep_dir(tmp_path / "b", rows_for("d3dwa-dr", "harsh", wins[:5] + ["timeout"], 0))
+    records = {r["method"]: r for r in headroom.paired([out, other], {"harsh": "dwa3"})}
+    assert records["dwa3"]["p"] == 0.5 and records["dwa3"]["paired_p"] == 1.0  # itself
+    # six layouts each won by the switch: the one-sided signed-rank p is 1/2^6
+    assert records["random@10"]["paired_p"] == pytest.approx(1 / 64)
+    assert records["random@10"]["p"] == 1.0 and records["random@10"]["paired_wins"] == 6
+    assert records["d3dwa"]["paired_wins"] == 3 and records["d3dwa"]["paired_losses"] == 0
+    assert records["d3dwa-dr"]["paired_wins"] == 1  # from the second sweep
+    assert headroom.main([str(out), "--switch", "harsh=dwa3", "--paired", "--also", str(out)]) == 2
+    assert "method 'dwa3' is also in" in capsys.readouterr().err
 
 
 def test_the_sources_table_reads_each_condition_against_its_reference(tmp_path, capsys):

@@ -13,6 +13,13 @@ interval over training seeds (``d3dwa eval``'s statistic).
     d3dwa sweep --axes '' --recovery nav2 --profiles none,paper,real,harsh --out runs/profiles
     python -m tools.experiments.headroom runs/profiles
     python -m tools.experiments.headroom runs/profiles --switch none=d3dwa,real=d3dwa,harsh=dwa3
+    python -m tools.experiments.headroom runs/profiles --paired --also runs/r3-nav2
+
+``--paired`` asks whether the bound itself would meet issue 40's targets on the sweep's layouts:
+per profile, the switch against every method (of the sweep and of each ``--also`` sweep), with
+``d3dwa compare``'s two statistics, P(switch > method) with its interval over training seeds and
+the one-sided Wilcoxon p paired by layout. A target the switch misses is one no policy can be
+expected to meet on these layouts.
 """
 
 from __future__ import annotations
@@ -25,9 +32,10 @@ from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import D3DWAError, ResultsError
+from d3dwa_bullet.evaluation.paired import paired_scores, paired_test
 from d3dwa_bullet.evaluation.results import job_rows
 from d3dwa_bullet.evaluation.seed_stats import mean_interval
-from d3dwa_bullet.evaluation.seed_tables import success_scores
+from d3dwa_bullet.evaluation.seed_tables import improvement, success_scores
 from d3dwa_bullet.evaluation.sweep import profile_of
 from d3dwa_bullet.method_specs import FIXED
 from tools.entry import ToolParser, tool_main
@@ -81,6 +89,60 @@ def headroom(sweep: Path, switch: Mapping[str, str]) -> list[dict[str, Any]]:
     return records
 
 
+def _profile_rows(sweeps: Sequence[Path]) -> dict[str, list[Mapping[str, Any]]]:
+    """Each profile's rows over the sweeps; ResultsError naming a sweep without results or a
+    method two sweeps both hold (the rows would mix two runs of it)."""
+    by_profile: dict[str, list[Mapping[str, Any]]] = defaultdict(list)
+    owner: dict[str, int] = {}
+    for i, sweep in enumerate(sweeps):
+        if not (sweep / "results.csv").is_file():
+            raise ResultsError(f"{sweep}: no results.csv")
+        for r in job_rows(sweep):
+            if owner.setdefault(r["method"], i) != i:
+                raise ResultsError(
+                    f"{sweep}: method {r['method']!r} is also in {sweeps[owner[r['method']]]}"
+                )
+            profile = profile_of(r)
+            if profile is not None:
+                by_profile[profile].append(r)
+    return by_profile
+
+
+def paired(sweeps: Sequence[Path], switch: Mapping[str, str]) -> list[dict[str, Any]]:
+    """Per profile of the switch and per method under it: P(switch > method) with its 95 %
+    interval over training seeds, and the paired one-sided Wilcoxon test of switch > method
+    by layout (``d3dwa compare``'s statistics). sweeps[0] holds the switch's methods."""
+    rows = _profile_rows(sweeps)
+    main = _profile_rows(sweeps[:1])
+    records: list[dict[str, Any]] = []
+    for profile, chosen in switch.items():
+        played = [{**r, "method": SWITCH} for r in main.get(profile, []) if r["method"] == chosen]
+        if not played:
+            raise ResultsError(f"{sweeps[0]}: no rows of {chosen!r} under profile {profile!r}")
+        for method in dict.fromkeys(r["method"] for r in rows[profile]):
+            both = played + [r for r in rows[profile] if r["method"] == method]
+            p = improvement(both, SWITCH, method, lambda r: ())[-1]
+            test = paired_test(paired_scores(both, SWITCH, method))
+            records.append({"profile": profile, "switch": chosen, "method": method,
+                            "p": p["p"], "low": p["low"], "high": p["high"]}
+                           | {f"paired_{k}": v for k, v in test.items()})  # fmt: skip
+    return records
+
+
+def paired_markdown(records: Sequence[Mapping[str, Any]]) -> str:
+    head = ["profile (switch plays)", "against", "P(switch > it)", "paired p (switch > it)",
+            "layouts better / worse"]  # fmt: skip
+    lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    for r in records:
+        p = "" if r["paired_p"] is None else f"{r['paired_p']:.3g}"
+        lines.append(
+            f"| {r['profile']} ({r['switch']}) | {r['method']} | {r['p']:.2f} "
+            f"[{r['low']:.2f}, {r['high']:.2f}] | {p} | "
+            f"{r['paired_wins']} / {r['paired_losses']} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def _cell(s: Mapping[str, float]) -> str:
     if s["low"] == s["high"]:
         return f"{100 * s['success']:.0f}"
@@ -106,14 +168,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("sweep", type=Path, help="a `d3dwa sweep` directory with named profiles")
     parser.add_argument("--switch", default=",".join(f"{p}={m}" for p, m in DEFAULT_SWITCH.items()),
                         help="PROFILE=METHOD,... (default: %(default)s)")  # fmt: skip
+    parser.add_argument(
+        "--paired",
+        action="store_true",
+        help="the switch against every method, P and the paired p per profile",
+    )
+    parser.add_argument(
+        "--also",
+        type=Path,
+        action="append",
+        default=[],
+        metavar="SWEEP",
+        help="with --paired: more methods from another sweep of the same layouts",
+    )
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
+    if args.also and not args.paired:
+        parser.error("--also needs --paired")
     try:
-        records = headroom(args.sweep, parse_switch(args.switch))
+        if args.paired:
+            records = paired([args.sweep, *args.also], parse_switch(args.switch))
+            text = paired_markdown(records)
+        else:
+            records = headroom(args.sweep, parse_switch(args.switch))
+            text = markdown(records)
     except D3DWAError as exc:
         print(f"headroom: {exc}", file=sys.stderr)
         return 2
-    print(json.dumps(records, indent=1) if args.json else markdown(records), end="")
+    print(json.dumps(records, indent=1) if args.json else text, end="")
     return 0
 
 
