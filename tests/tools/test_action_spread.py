@@ -1,0 +1,57 @@
+"""The action-spread diagnostic: the effective number of tuples a policy uses, and a tuple's share."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from d3dwa_bullet.evaluation.jobs import log_name
+from d3dwa_bullet.evaluation.results import CSV_FIELDS, appending_rows, row_key
+from tools.experiments import action_spread
+
+
+def sweep_with_tuples(tmp_path, episodes):
+    """A results directory whose episodes (method, policy seed, [(wp, wc, ws, tau), ...]) hold
+    each listed tuple for one step."""
+    (tmp_path / "logs").mkdir()
+    with appending_rows(tmp_path, CSV_FIELDS + ("axis", "level", "layout")) as append:
+        for i, (method, seed, tuples) in enumerate(episodes):
+            r = dict(world=f"L{i}", method=method, policy_seed=seed, seed=0, noise="harsh",
+                     axis="profile", level="", layout="generated", outcome="goal", time_s=1.0,
+                     tl_m=0.0, pd_rad=0.0, min_clearance_m=0.1, steps=len(tuples))  # fmt: skip
+            append(r)
+            key = row_key(r | {"policy_seed": None if seed == "" else seed})
+            cols = np.array(tuples, dtype=float).T
+            np.savez(tmp_path / "logs" / log_name(key), wp=cols[0], wc=cols[1], ws=cols[2],
+                     tau=cols[3], outcome="goal")  # fmt: skip
+    return tmp_path
+
+
+def test_perplexity_counts_the_effective_tuples():
+    one = action_spread.Counter({(1.0, 1.0, 1.0, 2.0): 7})
+    assert action_spread.perplexity(one) == pytest.approx(1.0)
+    even = action_spread.Counter({(float(k), 1.0, 1.0, 2.0): 3 for k in range(4)})
+    assert action_spread.perplexity(even) == pytest.approx(4.0)
+
+
+def test_spread_per_seed_and_the_reference_share(tmp_path, capsys):
+    dwa3 = (2.0, 1.0, 1.0, 4.0)
+    other = (1.0, 2.0, 1.0, 3.0)
+    out = sweep_with_tuples(tmp_path, [
+        ("d3dwa", "0", [dwa3, other, other, other]),
+        ("d3dwa", "1", [other] * 4),
+        ("dwa3", "", [dwa3] * 3),
+    ])  # fmt: skip
+    ref = action_spread.reference_tuple("dwa3")
+    assert ref == dwa3
+    recs = {
+        (r["method"], r["policy_seed"]): r
+        for r in action_spread.spread(out, ["d3dwa", "dwa3"], ref)
+    }
+    assert recs[("d3dwa", 0)]["reference_share"] == 0.25 and recs[("d3dwa", 0)]["tuples"] == 2
+    assert recs[("d3dwa", 1)]["perplexity"] == pytest.approx(1.0)
+    assert recs[("dwa3", None)]["reference_share"] == 1.0
+    assert action_spread.main([str(out), "--methods", "d3dwa", "--tuple", "dwa9"]) == 2
+    assert "'dwa9' is not a fixed method" in capsys.readouterr().err
+    assert action_spread.main([str(out), "--methods", "random"]) == 2
+    assert "no episodes of random" in capsys.readouterr().err
