@@ -89,9 +89,12 @@ def headroom(sweep: Path, switch: Mapping[str, str]) -> list[dict[str, Any]]:
     return records
 
 
-def _profile_rows(sweeps: Sequence[Path]) -> dict[str, list[Mapping[str, Any]]]:
-    """Each profile's rows over the sweeps; ResultsError naming a sweep without results or a
-    method two sweeps both hold (the rows would mix two runs of it)."""
+def _profile_rows(
+    sweeps: Sequence[Path],
+) -> tuple[dict[str, list[Mapping[str, Any]]], dict[str, int]]:
+    """Each profile's rows over the sweeps, and which sweep (its index) holds each method;
+    ResultsError naming a sweep without results or a method two sweeps both hold (the rows
+    would mix two runs of it)."""
     by_profile: dict[str, list[Mapping[str, Any]]] = defaultdict(list)
     owner: dict[str, int] = {}
     for i, sweep in enumerate(sweeps):
@@ -105,19 +108,18 @@ def _profile_rows(sweeps: Sequence[Path]) -> dict[str, list[Mapping[str, Any]]]:
             profile = profile_of(r)
             if profile is not None:
                 by_profile[profile].append(r)
-    return by_profile
+    return by_profile, owner
 
 
 def paired(sweeps: Sequence[Path], switch: Mapping[str, str]) -> list[dict[str, Any]]:
     """Per profile of the switch and per method under it: P(switch > method) with its 95 %
     interval over training seeds, and the paired one-sided Wilcoxon test of switch > method
     by layout (``d3dwa compare``'s statistics). sweeps[0] holds the switch's methods."""
-    rows = _profile_rows(sweeps)
-    main = _profile_rows(sweeps[:1])
+    rows, owner = _profile_rows(sweeps)
     records: list[dict[str, Any]] = []
     for profile, chosen in switch.items():
-        played = [{**r, "method": SWITCH} for r in main.get(profile, []) if r["method"] == chosen]
-        if not played:
+        played = [{**r, "method": SWITCH} for r in rows.get(profile, []) if r["method"] == chosen]
+        if not played or owner[chosen] != 0:
             raise ResultsError(f"{sweeps[0]}: no rows of {chosen!r} under profile {profile!r}")
         for method in dict.fromkeys(r["method"] for r in rows[profile]):
             both = played + [r for r in rows[profile] if r["method"] == method]
