@@ -7,13 +7,16 @@ import pytest
 
 from d3dwa_bullet.evaluation.jobs import log_name
 from d3dwa_bullet.evaluation.results import CSV_FIELDS, appending_rows, row_key
+from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint
+from d3dwa_bullet.planning.actions import ACTIONS_FULL
+from tests.support.held_policy import held_checkpoint
 from tools.experiments import action_spread
 
 
-def sweep_with_tuples(tmp_path, episodes):
+def sweep_with_tuples(tmp_path, episodes, extra=None):
     """A results directory whose episodes (method, policy seed, [(wp, wc, ws, tau), ...]) hold
-    each listed tuple for one step."""
-    (tmp_path / "logs").mkdir()
+    each listed tuple for one step; extra: more arrays for every log."""
+    (tmp_path / "logs").mkdir(parents=True)
     with appending_rows(tmp_path, CSV_FIELDS + ("axis", "level", "layout")) as append:
         for i, (method, seed, tuples) in enumerate(episodes):
             r = dict(world=f"L{i}", method=method, policy_seed=seed, seed=0, noise="harsh",
@@ -23,7 +26,7 @@ def sweep_with_tuples(tmp_path, episodes):
             key = row_key(r | {"policy_seed": None if seed == "" else seed})
             cols = np.array(tuples, dtype=float).T
             np.savez(tmp_path / "logs" / log_name(key), wp=cols[0], wc=cols[1], ws=cols[2],
-                     tau=cols[3], outcome="goal")  # fmt: skip
+                     tau=cols[3], outcome="goal", **(extra or {}))  # fmt: skip
     return tmp_path
 
 
@@ -55,3 +58,33 @@ def test_spread_per_seed_and_the_reference_share(tmp_path, capsys):
     assert "'dwa9' is not a fixed method" in capsys.readouterr().err
     assert action_spread.main([str(out), "--methods", "random"]) == 2
     assert "no episodes of random" in capsys.readouterr().err
+
+
+def test_margins_read_the_network_at_each_decision_step(tmp_path, capsys):
+    folder = held_checkpoint(tmp_path / "pol" / "seed-0", decision_steps=2)
+    agent, _ = load_checkpoint(folder)
+    obs = np.random.default_rng(0).uniform(0.0, 1.0, (6, 12)).astype(np.float32)
+    q = agent.q_values(obs)
+    chosen = np.repeat(q[::2].argmax(axis=1), 2)  # decided at steps 0, 2, 4 and held
+    chosen[1] = (chosen[1] + 1) % 100  # not a decision step: never read
+    tuples = [tuple(ACTIONS_FULL.decode(int(a))) for a in chosen]
+    out = sweep_with_tuples(tmp_path / "sweep", [("d3dwa", "0", tuples)],
+                            {"observations": obs, "action": chosen})  # fmt: skip
+    sure = action_spread.margins(out, "d3dwa", tmp_path / "pol", (2.0, 1.0, 1.0, 4.0))
+    rec = sure[("harsh", 0)]
+    top = np.sort(q[::2], axis=1)
+    assert rec["decisions"] == 3 and rec["argmax_is_logged"] == 1.0
+    assert rec["best_minus_second"] == pytest.approx(
+        float(np.median(top[:, -1] - top[:, -2])), rel=1e-5
+    )
+    dwa3 = ACTIONS_FULL.encode((2.0, 1.0, 1.0, 4.0))
+    assert rec["best_minus_reference"] == pytest.approx(
+        float(np.median(top[:, -1] - q[::2, dwa3])), rel=1e-5
+    )
+    assert (
+        action_spread.main([str(out), "--methods", "d3dwa,dwa3", "--policy", str(tmp_path / "pol")])
+        == 2
+    )
+    assert "--policy reads one method's seeds" in capsys.readouterr().err
+    assert action_spread.main([str(out), "--methods", "d3dwa", "--policy", str(tmp_path)]) == 2
+    assert "no seed-<k> folders" in capsys.readouterr().err

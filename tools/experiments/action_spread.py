@@ -8,7 +8,14 @@ one reference tuple (by default DWA III's, ``--tuple dwa3``; 1 % is the uniform 
 A diagnostic for issue 40: does a policy trained under noise settle on the tuple the fixed
 planner wins with?
 
+``--policy FOLDER`` (the seed-<k> folders the sweep drove, one learned method) also reads how
+sure each seed is of its choices: at every decision step of its logs (each ``decision_steps``-th
+step) it evaluates the seed's network on the logged observation and reports the medians of
+Q(best) - Q(second best) and Q(best) - Q(reference tuple), and how often the network's argmax
+is the logged action (1.0 unless the logs are not this policy's).
+
     python -m tools.experiments.action_spread runs/r3-nav2 --methods d3dwa-dr
+    python -m tools.experiments.action_spread runs/r3-nav2 --methods d3dwa-dr --policy policies/d3dwa-dr
 """
 
 from __future__ import annotations
@@ -16,7 +23,7 @@ from __future__ import annotations
 import json
 import sys
 from collections import Counter, defaultdict
-from collections.abc import Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +33,7 @@ from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.jobs import log_name
 from d3dwa_bullet.evaluation.results import job_rows, load_log, row_key
 from d3dwa_bullet.method_specs import FIXED
+from d3dwa_bullet.seed_dirs import seed_dirs
 from tools.entry import ToolParser, tool_main
 
 Tuple4 = tuple[float, float, float, float]
@@ -46,18 +54,22 @@ def reference_tuple(name: str) -> Tuple4:
     return (a.wp, a.wc, a.ws, a.tau)
 
 
-def spread(out: Path, methods: Sequence[str], reference: Tuple4) -> list[dict[str, Any]]:
-    """One record per (noise, method, policy seed) of the chosen methods."""
+def _logs(out: Path, methods: Sequence[str]) -> Iterator[tuple[Mapping[str, Any], dict[str, Any]]]:
+    """(row, per-step log) of every episode of the methods in results directory out."""
     if not (out / "results.csv").is_file():
         raise ResultsError(f"{out}: no results.csv")
-    counts: dict[tuple[str, str, str], Counter[Tuple4]] = defaultdict(Counter)
     for r in job_rows(out):
-        if r["method"] not in methods:
-            continue
-        path = out / "logs" / log_name(row_key(r))
-        if not path.is_file():
-            raise ResultsError(f"{path}: no per-step log for this episode")
-        log = load_log(path)
+        if r["method"] in methods:
+            path = out / "logs" / log_name(row_key(r))
+            if not path.is_file():
+                raise ResultsError(f"{path}: no per-step log for this episode")
+            yield r, load_log(path)
+
+
+def spread(out: Path, methods: Sequence[str], reference: Tuple4) -> list[dict[str, Any]]:
+    """One record per (noise, method, policy seed) of the chosen methods."""
+    counts: dict[tuple[str, str, str], Counter[Tuple4]] = defaultdict(Counter)
+    for r, log in _logs(out, methods):
         steps = zip(log["wp"], log["wc"], log["ws"], log["tau"], strict=True)
         counts[(r["noise"], r["method"], r["policy_seed"])].update(
             (float(wp), float(wc), float(ws), float(tau)) for wp, wc, ws, tau in steps
@@ -78,14 +90,62 @@ def spread(out: Path, methods: Sequence[str], reference: Tuple4) -> list[dict[st
     ]
 
 
+def margins(
+    out: Path, method: str, policy: Path, reference: Tuple4
+) -> dict[tuple[str, int], dict[str, float]]:
+    """{(noise, policy seed): medians of Q(best) - Q(2nd) and Q(best) - Q(reference) over the
+    seed's decision steps, and the share of them whose argmax is the logged action}."""
+    # start-up cost: torch, only with --policy
+    from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint
+    from d3dwa_bullet.learning.agents.policy_terms import checkpoint_terms
+    from d3dwa_bullet.planning.actions import ActionSet, PlannerAction
+
+    folders = seed_dirs(policy)
+    if not folders:
+        raise ResultsError(f"--policy {policy}: no seed-<k> folders")
+    nets, refs, periods = {}, {}, {}
+    for k, folder in folders.items():
+        agent, meta = load_checkpoint(folder)
+        nets[k] = agent
+        refs[k] = ActionSet.from_dict(meta["actions"]).encode(PlannerAction(*reference))
+        periods[k] = checkpoint_terms(meta, str(folder / "meta.json"))[0]
+    steps: dict[tuple[str, int], list[np.ndarray]] = defaultdict(list)
+    for r, log in _logs(out, [method]):
+        k = r["policy_seed"]
+        if k not in nets:
+            raise ResultsError(f"--policy {policy}: no seed-{k} for {out}'s rows of seed {k}")
+        at = slice(0, None, periods[k])
+        q = np.asarray(nets[k].q_values(log["observations"][at]))
+        chosen = np.asarray(log["action"], dtype=int)[at]
+        top = np.sort(q, axis=1)
+        steps[(r["noise"], k)].append(np.column_stack([
+            top[:, -1] - top[:, -2], top[:, -1] - q[:, refs[k]], q.argmax(axis=1) == chosen,
+        ]))  # fmt: skip
+    out_records = {}
+    for key, parts in steps.items():
+        m = np.concatenate(parts)
+        out_records[key] = {"best_minus_second": float(np.median(m[:, 0])),
+                            "best_minus_reference": float(np.median(m[:, 1])),
+                            "argmax_is_logged": float(m[:, 2].mean()), "decisions": len(m)}  # fmt: skip
+    return out_records
+
+
 def markdown(records: Sequence[dict[str, Any]], reference: str) -> str:
     head = ["noise", "method", "seed", "steps", "tuples used", "perplexity", f"{reference} share"]
+    sure = any("best_minus_second" in r for r in records)
+    if sure:
+        head += ["decisions", "Q(best) - Q(2nd), median", f"Q(best) - Q({reference}), median",
+                 "argmax = logged"]  # fmt: skip
     lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
     for r in records:
-        lines.append(
-            f"| {r['noise']} | {r['method']} | {r['policy_seed'] or '-'} | {r['steps']} | {r['tuples']} "
-            f"| {r['perplexity']:.0f} | {100 * r['reference_share']:.1f} % |"
-        )
+        cells = [r["noise"], r["method"], r["policy_seed"] if r["policy_seed"] is not None else "-",
+                 r["steps"], r["tuples"], f"{r['perplexity']:.0f}",
+                 f"{100 * r['reference_share']:.1f} %"]  # fmt: skip
+        if sure:
+            cells += ([r["decisions"], f"{r['best_minus_second']:.3f}",
+                       f"{r['best_minus_reference']:.3f}", f"{r['argmax_is_logged']:.2f}"]
+                      if "decisions" in r else [""] * 4)  # fmt: skip
+        lines.append("| " + " | ".join(str(c) for c in cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -95,12 +155,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("dir", type=Path, help="a results directory of `d3dwa sweep` or `eval`")
     parser.add_argument("--methods", required=True, help="comma-separated methods to read")
     parser.add_argument("--tuple", default="dwa3", help="the reference fixed method's tuple")
+    parser.add_argument("--policy", type=Path, help="the seed folders of the one learned method")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
     try:
         reference = reference_tuple(args.tuple)
         methods = [m for m in args.methods.split(",") if m]
         records = spread(args.dir, methods, reference)
+        if args.policy is not None:
+            if len(methods) != 1:
+                raise ResultsError(
+                    f"--policy reads one method's seeds, got --methods {args.methods}"
+                )
+            sure = margins(args.dir, methods[0], args.policy, reference)
+            for r in records:
+                r |= sure.get((r["noise"], r["policy_seed"]), {})
     except D3DWAError as exc:
         print(f"action_spread: {exc}", file=sys.stderr)
         return 2
