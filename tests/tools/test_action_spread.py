@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from d3dwa_bullet.controllers import default_policy_path
 from d3dwa_bullet.evaluation.jobs import log_name
 from d3dwa_bullet.evaluation.results import CSV_FIELDS, appending_rows, row_key
 from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint
@@ -88,3 +89,6 @@ def test_margins_read_the_network_at_each_decision_step(tmp_path, capsys):
     assert "--policy reads one method's seeds" in capsys.readouterr().err
     assert action_spread.main([str(out), "--methods", "d3dwa", "--policy", str(tmp_path)]) == 2
     assert "no seed-<k> folders" in capsys.readouterr().err
+    tables = str(default_policy_path("dqdwa"))  # the shipped tabular seeds: no network to read
+    assert action_spread.main([str(out), "--methods", "d3dwa", "--policy", tables]) == 2
+    assert "a dqdwa table, not a Q-network" in capsys.readouterr().err

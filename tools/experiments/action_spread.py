@@ -68,7 +68,7 @@ def _logs(out: Path, methods: Sequence[str]) -> Iterator[tuple[Mapping[str, Any]
 
 def spread(out: Path, methods: Sequence[str], reference: Tuple4) -> list[dict[str, Any]]:
     """One record per (noise, method, policy seed) of the chosen methods."""
-    counts: dict[tuple[str, str, str], Counter[Tuple4]] = defaultdict(Counter)
+    counts: dict[tuple[str, str, int | None], Counter[Tuple4]] = defaultdict(Counter)
     for r, log in _logs(out, methods):
         steps = zip(log["wp"], log["wc"], log["ws"], log["tau"], strict=True)
         counts[(r["noise"], r["method"], r["policy_seed"])].update(
@@ -97,6 +97,7 @@ def margins(
     seed's decision steps, and the share of them whose argmax is the logged action}."""
     # start-up cost: torch, only with --policy
     from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint
+    from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
     from d3dwa_bullet.learning.agents.policy_terms import checkpoint_terms
     from d3dwa_bullet.planning.actions import ActionSet, PlannerAction
 
@@ -106,6 +107,8 @@ def margins(
     nets, refs, periods = {}, {}, {}
     for k, folder in folders.items():
         agent, meta = load_checkpoint(folder)
+        if not isinstance(agent, D3QNAgent):
+            raise ResultsError(f"--policy {folder}: a {meta.get('method')} table, not a Q-network")
         nets[k] = agent
         refs[k] = ActionSet.from_dict(meta["actions"]).encode(PlannerAction(*reference))
         periods[k] = checkpoint_terms(meta, str(folder / "meta.json"))[0]
