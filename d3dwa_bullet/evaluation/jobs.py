@@ -27,7 +27,7 @@ from d3dwa_bullet.backends import open_backend
 from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig, EpisodeResult, run_episode
-from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.errors import ConfigError, ResultsError
 from d3dwa_bullet.evaluation.policy_runs import check_scan_filters
 from d3dwa_bullet.evaluation.results import (
     CSV_FIELDS,
@@ -98,6 +98,15 @@ def log_name(key: Key) -> str:
     world, method, policy_seed, seed, noise = key
     trained = "" if policy_seed is None else f"__p{policy_seed}"
     return file_stem(_UNSAFE.sub("_", f"{world}__{method}{trained}__{noise}__s{seed}")) + ".npz"
+
+
+def row_log(out: Path, row: Mapping[str, Any]) -> dict[str, Any]:
+    """The per-step log of the episode a results.csv ``row`` of results directory ``out``
+    records; ResultsError (one line, the file) if it is missing."""
+    path = out / "logs" / log_name(row_key(row))
+    if not path.is_file():
+        raise ResultsError(f"{path}: log of the episode is missing")
+    return load_log(path)
 
 
 def figure_name(world: str, colour_by: str) -> str:

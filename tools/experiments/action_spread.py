@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 
 from d3dwa_bullet.errors import D3DWAError, ResultsError
-from d3dwa_bullet.evaluation.jobs import log_name
-from d3dwa_bullet.evaluation.results import job_rows, load_log, row_key
+from d3dwa_bullet.evaluation.jobs import row_log
+from d3dwa_bullet.evaluation.results import job_rows
 from d3dwa_bullet.method_specs import FIXED
 from d3dwa_bullet.seed_dirs import seed_dirs
 from tools.entry import ToolParser, tool_main
@@ -60,10 +60,7 @@ def _logs(out: Path, methods: Sequence[str]) -> Iterator[tuple[Mapping[str, Any]
         raise ResultsError(f"{out}: no results.csv")
     for r in job_rows(out):
         if r["method"] in methods:
-            path = out / "logs" / log_name(row_key(r))
-            if not path.is_file():
-                raise ResultsError(f"{path}: no per-step log for this episode")
-            yield r, load_log(path)
+            yield r, row_log(out, r)
 
 
 def spread(out: Path, methods: Sequence[str], reference: Tuple4) -> list[dict[str, Any]]:

@@ -22,8 +22,8 @@ from typing import Any
 
 from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.failures import MODES, SYMPTOMS, circling, classify, recoveries
-from d3dwa_bullet.evaluation.jobs import log_name
-from d3dwa_bullet.evaluation.results import job_rows, load_log, recovery_of, row_key
+from d3dwa_bullet.evaluation.jobs import row_log
+from d3dwa_bullet.evaluation.results import job_rows, recovery_of
 from d3dwa_bullet.evaluation.sweep_settings import PROFILES
 from d3dwa_bullet.io import atomic_savefig
 from d3dwa_bullet.method_specs import method_label
@@ -45,10 +45,7 @@ def failure_records(out: Path) -> list[dict[str, Any]]:
         in_goals: Counter[str] = Counter()
         started = progressed = circles = 0
         for r in rs:
-            path = out / "logs" / log_name(row_key(r))
-            if not path.is_file():
-                raise ResultsError(f"{path}: log of the episode is missing")
-            log = load_log(path)
+            log = row_log(out, r)
             found = classify(log)
             n, good = recoveries(log)
             started, progressed = started + n, progressed + good

@@ -29,8 +29,8 @@ import yaml
 
 from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.failures import classify
-from d3dwa_bullet.evaluation.jobs import log_name
-from d3dwa_bullet.evaluation.results import job_rows, load_log, row_key
+from d3dwa_bullet.evaluation.jobs import row_log
+from d3dwa_bullet.evaluation.results import job_rows
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.resources import profiles_dir
@@ -113,7 +113,7 @@ def records(sweep: Path) -> list[dict[str, Any]]:
         modes: Counter[str] = Counter()
         for r in rs:
             if r["outcome"] != "goal":
-                modes[classify(load_log(sweep / "logs" / log_name(row_key(r))))["mode"]] += 1
+                modes[classify(row_log(sweep, r))["mode"]] += 1
         goals = sum(r["outcome"] == "goal" for r in rs)
         out.append({"condition": cond, "method": method, "episodes": len(rs), "goals": goals,
                     "success": goals / len(rs), "modes": dict(modes)})  # fmt: skip

@@ -23,8 +23,8 @@ import numpy as np
 import torch
 
 from d3dwa_bullet.errors import D3DWAError, ResultsError
-from d3dwa_bullet.evaluation.jobs import log_name
-from d3dwa_bullet.evaluation.results import job_rows, load_log, row_key
+from d3dwa_bullet.evaluation.jobs import row_log
+from d3dwa_bullet.evaluation.results import job_rows
 from d3dwa_bullet.evaluation.stats import wilson_interval
 from tools.entry import ToolParser, tool_main
 
@@ -50,7 +50,7 @@ def dataset(sweep: Path, labels: Sequence[str], history: int, stride: int) -> di
         raise ResultsError(f"{sweep}: no rows under {', '.join(labels)}")
     data: dict[str, list[list[np.ndarray]]] = {}
     for r in rows:
-        log = load_log(sweep / "logs" / log_name(row_key(r)))
+        log = row_log(sweep, r)
         cls = labels.index(r["noise"])
         data.setdefault(r["world"], [[], []])[cls].append(windows(log, history, stride))
     return {w: [np.concatenate(c) if c else None for c in per] for w, per in data.items()}
