@@ -71,8 +71,7 @@ def test_margins_read_the_network_at_each_decision_step(tmp_path, capsys):
     tuples = [tuple(ACTIONS_FULL.decode(int(a))) for a in chosen]
     out = sweep_with_tuples(tmp_path / "sweep", [("d3dwa", "0", tuples)],
                             {"observations": obs, "action": chosen})  # fmt: skip
-    sure = action_spread.margins(out, "d3dwa", tmp_path / "pol", (2.0, 1.0, 1.0, 4.0))
-    rec = sure[("harsh", 0)]
+    (rec,) = action_spread.spread(out, ["d3dwa"], (2.0, 1.0, 1.0, 4.0), tmp_path / "pol")
     top = np.sort(q[::2], axis=1)
     assert rec["decisions"] == 3 and rec["argmax_is_logged"] == 1.0
     assert rec["best_minus_second"] == pytest.approx(

@@ -63,35 +63,48 @@ def _logs(out: Path, methods: Sequence[str]) -> Iterator[tuple[Mapping[str, Any]
             yield r, row_log(out, r)
 
 
-def spread(out: Path, methods: Sequence[str], reference: Tuple4) -> list[dict[str, Any]]:
-    """One record per (noise, method, policy seed) of the chosen methods."""
+def spread(
+    out: Path, methods: Sequence[str], reference: Tuple4, policy: Path | None = None
+) -> list[dict[str, Any]]:
+    """One record per (noise, method, policy seed) of the chosen methods; with ``policy`` (the
+    seed folders of the one method) also each seed's value margins (:func:`_margins`), from
+    the same pass over the logs."""
+    if policy is not None and len(methods) != 1:
+        raise ResultsError(f"--policy reads one method's seeds, got --methods {','.join(methods)}")
+    networks = _networks(policy, reference) if policy is not None else {}
     counts: dict[tuple[str, str, int | None], Counter[Tuple4]] = defaultdict(Counter)
+    decisions: dict[tuple[str, str, int | None], list[np.ndarray]] = defaultdict(list)
     for r, log in _logs(out, methods):
+        run = (r["noise"], r["method"], r["policy_seed"])
         steps = zip(log["wp"], log["wc"], log["ws"], log["tau"], strict=True)
-        counts[(r["noise"], r["method"], r["policy_seed"])].update(
+        counts[run].update(
             (float(wp), float(wc), float(ws), float(tau)) for wp, wc, ws, tau in steps
         )
+        if policy is not None:
+            if r["policy_seed"] not in networks:
+                k = r["policy_seed"]
+                raise ResultsError(f"--policy {policy}: no seed-{k} for {out}'s rows of seed {k}")
+            decisions[run].append(_decision_margins(log, *networks[r["policy_seed"]]))
     if not counts:
         raise ResultsError(f"{out}: no episodes of {', '.join(methods)}")
     return [
         {
-            "noise": noise,
-            "method": method,
-            "policy_seed": seed,
+            "noise": run[0],
+            "method": run[1],
+            "policy_seed": run[2],
             "steps": sum(c.values()),
             "tuples": len(c),
             "perplexity": perplexity(c),
             "reference_share": c[reference] / sum(c.values()),
+            **(_margins(np.concatenate(decisions[run])) if run in decisions else {}),
         }  # fmt: skip
-        for (noise, method, seed), c in sorted(counts.items())
+        for run, c in sorted(counts.items())
     ]
 
 
-def margins(
-    out: Path, method: str, policy: Path, reference: Tuple4
-) -> dict[tuple[str, int], dict[str, float]]:
-    """{(noise, policy seed): medians of Q(best) - Q(2nd) and Q(best) - Q(reference) over the
-    seed's decision steps, and the share of them whose argmax is the logged action}."""
+def _networks(policy: Path, reference: Tuple4) -> dict[int, tuple[Any, int, int]]:
+    """{seed: (its D3QN agent, the reference tuple's action index, its decision period)} of
+    the seed-<k> folders of ``policy``; ResultsError for none or for a tabular policy."""
     # start-up cost: torch, only with --policy
     from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint
     from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
@@ -101,33 +114,33 @@ def margins(
     folders = seed_dirs(policy)
     if not folders:
         raise ResultsError(f"--policy {policy}: no seed-<k> folders")
-    nets, refs, periods = {}, {}, {}
+    networks = {}
     for k, folder in folders.items():
         agent, meta = load_checkpoint(folder)
         if not isinstance(agent, D3QNAgent):
             raise ResultsError(f"--policy {folder}: a {meta.get('method')} table, not a Q-network")
-        nets[k] = agent
-        refs[k] = ActionSet.from_dict(meta["actions"]).encode(PlannerAction(*reference))
-        periods[k] = checkpoint_terms(meta, str(folder / "meta.json"))[0]
-    steps: dict[tuple[str, int], list[np.ndarray]] = defaultdict(list)
-    for r, log in _logs(out, [method]):
-        k = r["policy_seed"]
-        if k not in nets:
-            raise ResultsError(f"--policy {policy}: no seed-{k} for {out}'s rows of seed {k}")
-        at = slice(0, None, periods[k])
-        q = np.asarray(nets[k].q_values(log["observations"][at]))
-        chosen = np.asarray(log["action"], dtype=int)[at]
-        top = np.sort(q, axis=1)
-        steps[(r["noise"], k)].append(np.column_stack([
-            top[:, -1] - top[:, -2], top[:, -1] - q[:, refs[k]], q.argmax(axis=1) == chosen,
-        ]))  # fmt: skip
-    out_records = {}
-    for key, parts in steps.items():
-        m = np.concatenate(parts)
-        out_records[key] = {"best_minus_second": float(np.median(m[:, 0])),
-                            "best_minus_reference": float(np.median(m[:, 1])),
-                            "argmax_is_logged": float(m[:, 2].mean()), "decisions": len(m)}  # fmt: skip
-    return out_records
+        ref = ActionSet.from_dict(meta["actions"]).encode(PlannerAction(*reference))
+        networks[k] = (agent, ref, checkpoint_terms(meta, str(folder / "meta.json"))[0])
+    return networks
+
+
+def _decision_margins(log: Mapping[str, Any], agent: Any, ref: int, period: int) -> np.ndarray:
+    """Per decision step of an episode's log (each ``period``-th step): Q(best) - Q(2nd),
+    Q(best) - Q(ref), and whether the network's argmax is the logged action."""
+    at = slice(0, None, period)
+    q = np.asarray(agent.q_values(log["observations"][at]))
+    chosen = np.asarray(log["action"], dtype=int)[at]
+    top = np.sort(q, axis=1)
+    return np.column_stack(
+        [top[:, -1] - top[:, -2], top[:, -1] - q[:, ref], q.argmax(axis=1) == chosen]
+    )
+
+
+def _margins(m: np.ndarray) -> dict[str, float]:
+    """Medians of a run's decision margins (:func:`_decision_margins`) and its argmax share."""
+    return {"best_minus_second": float(np.median(m[:, 0])),
+            "best_minus_reference": float(np.median(m[:, 1])),
+            "argmax_is_logged": float(m[:, 2].mean()), "decisions": len(m)}  # fmt: skip
 
 
 def markdown(records: Sequence[dict[str, Any]], reference: str) -> str:
@@ -161,15 +174,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         reference = reference_tuple(args.tuple)
         methods = [m for m in args.methods.split(",") if m]
-        records = spread(args.dir, methods, reference)
-        if args.policy is not None:
-            if len(methods) != 1:
-                raise ResultsError(
-                    f"--policy reads one method's seeds, got --methods {args.methods}"
-                )
-            sure = margins(args.dir, methods[0], args.policy, reference)
-            for r in records:
-                r |= sure.get((r["noise"], r["policy_seed"]), {})
+        records = spread(args.dir, methods, reference, args.policy)
     except D3DWAError as exc:
         print(f"action_spread: {exc}", file=sys.stderr)
         return 2
