@@ -3,7 +3,9 @@
 Worlds: the shipped real-style worlds R1-R3 and, per generator style (R1-style, R2-style,
 R3-style), ``layouts`` freshly generated layouts with seeds ``UNSEEN_LAYOUT_SEED_BASE + i``
 (2^31, 2^31 + 1, ...; :mod:`d3dwa_bullet.world.generator`). Training draws generator seeds
-below that bound, so these layouts are never seen in training.
+below that bound, so these layouts are never seen in training. Layout group ``shipped`` holds
+the shipped worlds named in ``--worlds`` (default R1-R3), ``given`` any other ``--worlds`` entry
+(a generated layout by name, a world file), ``generated`` the unseen layouts.
 
 Noise: one axis at a time, from 0 to a harsh value in ``levels`` equal steps, every other
 model off; then the named profiles (none, paper, real, harsh), sampled per episode as in
@@ -63,10 +65,12 @@ from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.limits import MAX_EPISODES
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
 from d3dwa_bullet.world.model import World
-from d3dwa_bullet.world.registry import load_world
+from d3dwa_bullet.world.registry import load_world, world_paths
 
 SWEEP_FIELDS = (*CSV_FIELDS[:5], "axis", "level", "layout", *CSV_FIELDS[5:])
-LAYOUT_GROUPS = ("shipped", "generated")
+LAYOUT_GROUPS = ("shipped", "given", "generated")
+"""Where a sweep's layout comes from: a shipped world named in --worlds; any other --worlds
+entry (a generated layout by name, or a world file); one of the --layouts unseen layouts."""
 
 
 @dataclass(frozen=True)
@@ -101,9 +105,17 @@ def unseen_layout_seeds(layouts: int) -> list[int]:
     return [UNSEEN_LAYOUT_SEED_BASE + i for i in range(layouts)]
 
 
+def given_group(name: str) -> str:
+    """The layout group of a --worlds entry: "shipped" for a shipped world's name, "given"
+    for anything else (a generated layout by name, a world file)."""
+    shipped = {n.upper() for n in world_paths()}
+    return "shipped" if name.upper() in shipped else "given"
+
+
 def sweep_worlds(settings: SweepSettings) -> list[tuple[World, str]]:
-    """(world, "shipped" | "generated") pairs, with the time-limit override applied."""
-    pairs = [(load_world(w), "shipped") for w in settings.worlds]
+    """(world, layout group) pairs (:data:`LAYOUT_GROUPS`), with the time-limit override
+    applied."""
+    pairs = [(load_world(w), given_group(w)) for w in settings.worlds]
     pairs += [
         (generate_world(style, seed), "generated")
         for style in settings.styles
@@ -172,9 +184,11 @@ def profile_series(
 def layout_titles(settings: SweepSettings) -> dict[str, str]:
     """Column titles of the layout groups that the settings have."""
     titles = {}
-    if settings.worlds:
-        names = [Path(w).stem if Path(w).suffix else w for w in settings.worlds]
-        titles["shipped"] = f"shipped worlds: {', '.join(names)}"
+    for group, label in (("shipped", "shipped worlds"), ("given", "worlds given")):
+        names = [Path(w).stem if Path(w).suffix else w
+                 for w in settings.worlds if given_group(w) == group]  # fmt: skip
+        if names:
+            titles[group] = f"{label}: {', '.join(names)}"
     seeds = unseen_layout_seeds(settings.layouts)
     if seeds and settings.styles:
         span = f"{seeds[0]}" if len(seeds) == 1 else f"{seeds[0]}..{seeds[-1]}"

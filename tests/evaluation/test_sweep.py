@@ -26,6 +26,7 @@ from d3dwa_bullet.evaluation.sweep import (
     SWEEP_FIELDS,
     SweepSettings,
     conditions,
+    layout_titles,
     read_sweep,
     run_sweep,
     sweep_jobs,
@@ -69,6 +70,14 @@ def test_unseen_layouts_come_from_outside_the_training_seed_range():
     assert names == ["R1", *(f"R{i}-style-s{UNSEEN_LAYOUT_SEED_BASE}" for i in (1, 2, 3))]
     assert [g for _, g in pairs] == ["shipped"] + ["generated"] * 3
     assert UNSEEN_LAYOUT_SEED_BASE >= 2**31  # training draws generator seeds in [0, 2^31)
+
+
+def test_worlds_given_by_generated_name_are_not_filed_as_shipped():
+    named = f"R2-style-s{UNSEEN_LAYOUT_SEED_BASE + 7}"
+    settings = SweepSettings(methods=("dwa1",), worlds=("r1", named), layouts=0)
+    assert [g for _, g in sweep_worlds(settings)] == ["shipped", "given"]
+    titles = layout_titles(settings)
+    assert titles == {"shipped": "shipped worlds: r1", "given": f"worlds given: {named}"}
 
 
 def test_wilson_interval_always_contains_the_observed_rate():
