@@ -14,7 +14,7 @@ import functools
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn, Protocol
 
 from d3dwa_bullet.cli.app import one_line, os_error_text
 from d3dwa_bullet.cli.options import CommandParser
@@ -24,7 +24,14 @@ from d3dwa_bullet.errors import D3DWAError
 _running: list[str] = []
 """The tool whose main is running (``tool_main``): a parser names it, whatever sys.argv says."""
 
-Main = Callable[[Sequence[str] | None], int | None]
+Main = Callable[[Any], int | None]
+"""A tool's ``main(argv)``: argv a list or sequence of strings, or None for sys.argv."""
+
+
+class ToolMain(Protocol):
+    """``main`` wrapped by :func:`tool_main`: argv optional, an exit status back."""
+
+    def __call__(self, argv: Sequence[str] | None = None) -> int: ...
 
 
 class ToolParser(CommandParser):
@@ -49,7 +56,7 @@ def fail(tool: str, message: str) -> NoReturn:
     sys.exit(2)
 
 
-def tool_main(main: Main) -> Callable[[Sequence[str] | None], int]:
+def tool_main(main: Main) -> ToolMain:
     """``main`` under the one-line contract; the tool's name is its module's."""
     tool = main.__module__.rpartition(".")[2]
     if tool == "__main__":

@@ -24,3 +24,12 @@ def test_figures_are_in_control_steps(tmp_path: Path, decision_steps: int) -> No
     loop = result["loop_steps_per_s"]
     assert result["minutes_per_250k_steps"] == pytest.approx(250_000 / loop / 60, abs=0.01)
     assert loop == pytest.approx(200 / result["wall_time_s"], rel=0.5)  # not 10x off
+
+
+def test_a_tabular_config_is_refused_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    from d3dwa_bullet.resources import configs_dir
+
+    assert bench_train.main(["--config", str(configs_dir() / "dqdwa.yaml"), "--steps", "10"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("bench_train: error: ") and "dqdwa.yaml" in err
+    assert "'dqdwa' is not a D3QN learner" in err and "\n" not in err

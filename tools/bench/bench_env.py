@@ -29,6 +29,9 @@ import argparse
 import json
 import time
 from collections.abc import Sequence
+from typing import cast
+
+from gymnasium.spaces import Discrete
 
 from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import Episode, EpisodeConfig
@@ -82,7 +85,9 @@ def bench_train_env(config: str, steps: int) -> dict:
         env.reset(seed=0)
         t0, c0 = time.perf_counter(), time.process_time()
         for _ in range(steps):
-            _, _, terminated, truncated, _ = env.step(int(rng.integers(env.action_space.n)))
+            _, _, terminated, truncated, _ = env.step(
+                int(rng.integers(cast(Discrete, env.action_space).n))
+            )
             if terminated or truncated:
                 env.reset()
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0

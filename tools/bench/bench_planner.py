@@ -80,9 +80,8 @@ def check(n: int, seed: int) -> dict:
         pts = random_scene(rng, beams)
         vel = (rng.uniform(0, 0.4), rng.uniform(-2, 2))
         goal = rng.uniform(-1, 4, 2)
-        action = PlannerAction(
-            *(float(w) for w in rng.choice([1, 2, 3], 3)), float(rng.choice([2, 3, 4, 5]))
-        )
+        wp, wc, ws = (float(w) for w in rng.choice([1, 2, 3], 3))
+        action = PlannerAction(wp, wc, ws, float(rng.choice([2, 3, 4, 5])))
         fast = plan(vel, pts, goal, action, params)
         _, _, ref_index, ref_clear, _ = reference_plan(vel, pts, goal, action, params)
         same += int(ref_index == fast.index)

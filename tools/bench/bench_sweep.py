@@ -21,6 +21,7 @@ import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.evaluation.results import CSV_FIELDS
@@ -29,7 +30,7 @@ from tools.entry import ToolParser, tool_main
 
 #: The benchmark's sweep: 3 methods x 3 worlds (R1, R2, one unseen R1-style layout) x 3
 #: noise conditions (none, lidar dropout 0.5, the `real` profile) = 27 episodes.
-SETTINGS = dict(
+SETTINGS: dict[str, Any] = dict(
     methods=("dwa1", "dwa2", "dwa3"),
     worlds=("R1", "R2"),
     styles=("R1-style",),

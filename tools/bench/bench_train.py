@@ -38,6 +38,8 @@ import tempfile
 from dataclasses import replace
 from pathlib import Path
 
+from d3dwa_bullet.errors import D3DWAError
+from d3dwa_bullet.learning.agents.d3qn import D3QNConfig
 from d3dwa_bullet.learning.training import load_train_config, train
 from d3dwa_bullet.resources import configs_dir
 from tools.bench import bench_env
@@ -48,9 +50,15 @@ SHIPPED_BUDGET = 250_000
 
 def run(steps: int = 3000, config: str | Path | None = None, n_envs: int | None = None) -> dict:
     """Train ``steps`` control steps and return the throughput figures."""
-    base = load_train_config(configs_dir() / "d3dwa.yaml" if config is None else config)
+    path = configs_dir() / "d3dwa.yaml" if config is None else config
+    base = load_train_config(path)
     k = base.decision_steps  # control steps per decision: the trainer counts decisions
     decisions = max(1, steps // k)
+    if not isinstance(base.agent, D3QNConfig):
+        raise D3DWAError(
+            f"{path}: method {base.method!r} is not a D3QN learner; bench_train "
+            "times D3QN training (a dqdwa table has no network to time)"
+        )
     agent = replace(base.agent, learning_starts=min(base.agent.learning_starts, decisions // 4))
     cfg = replace(base, total_steps=decisions, agent=agent, eval_every=0, checkpoint_every=0,
                   keep="final", n_envs=base.n_envs if n_envs is None else n_envs)  # fmt: skip

@@ -105,7 +105,7 @@ def run(
     controller = make_controller(method)
     if controller.fixed is None:
         raise D3DWAError(f"eval_estimator drives a fixed method (dwa1/dwa2/dwa3), got {method!r}")
-    per_seed = []
+    per_seed: list[dict[str, Any]] = []
     pooled: dict[str, list[np.ndarray]] = {"odom": [], "ekf": [], "odom_yaw": [], "ekf_yaw": []}
     for seed in seeds:
         track = Track([], [], [])

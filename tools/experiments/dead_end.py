@@ -52,7 +52,7 @@ def branches(
         for a in tried:  # all checked before any branch is replayed
             if not 0 <= a < len(q0):
                 raise D3DWAError(f"--actions: {a} is not an action index 0..{len(q0) - 1}")
-        rows = []
+        rows: list[dict[str, Any]] = []
         for a in tried:
             obs, info = branch_point()
             outcome = None

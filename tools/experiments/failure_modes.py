@@ -106,7 +106,7 @@ def figure(
     methods = list(dict.fromkeys(r["method"] for r in records))
     fig, axes = plt.subplots(1, len(noises), figsize=(3.2 * len(noises), 4.6), sharey=True)
     axes = [axes] if len(noises) == 1 else list(axes)
-    colours = plt.get_cmap("tab10").colors
+    colours = [plt.get_cmap("tab10")(i) for i in range(10)]
     for ax, noise in zip(axes, noises, strict=True):
         by_method = {r["method"]: r for r in records if r["noise"] == noise}
         bottoms = [0.0] * len(methods)

@@ -56,6 +56,7 @@ def probe(
     if fixed:
         jobs += [(w, "fixed", i) for w in worlds for i in range(len(actions))]
     done: dict[tuple[str, str, int], dict[str, Any]] = {}
+    summary: dict[str, Any]
     with tqdm(total=len(jobs), disable=not progress, unit="ep", desc="probe") as bar:
         for job, summary in run_local(run_job, jobs, (set_name, seed), workers):
             done[job] = summary

@@ -57,7 +57,7 @@ def probe(
     starts = {f: start_world(world, route, f) for f in fractions}
     policies = {m: None if not needs_policy(m) else policy for m in methods}
     jobs = [Job(starts[f], m, seed, policy=policies[m]) for f in fractions for m in methods]
-    done = dict(run_local(_run, jobs, None, workers))
+    done: dict[Job, dict[str, Any]] = dict(run_local(_run, jobs, None, workers))
     rows = []
     for f in fractions:
         row: dict[str, Any] = {"fraction": f, "start": [round(v, 3) for v in starts[f].start]}

@@ -67,7 +67,7 @@ def accuracy(
     test = set(rng.permutation(layouts)[: len(layouts) // 2])
 
     def split(held: bool) -> tuple[torch.Tensor, torch.Tensor]:
-        xs = [[], []]
+        xs: list[list[np.ndarray]] = [[], []]
         for w in layouts:
             if (w in test) == held:
                 for cls in (0, 1):

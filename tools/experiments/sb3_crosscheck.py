@@ -43,8 +43,8 @@ try:  # the optional `sb3` extra; without it main says so in one line (tools.ent
     from stable_baselines3.common.callbacks import BaseCallback
 except ModuleNotFoundError as missing:
     SB3_MISSING: ModuleNotFoundError | None = missing
-    DQN = Any
-    BaseCallback = object
+    DQN = Any  # type: ignore[misc,assignment]
+    BaseCallback = object  # type: ignore[misc,assignment]
 else:
     SB3_MISSING = None
 

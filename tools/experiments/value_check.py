@@ -25,9 +25,10 @@ import itertools
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
+from gymnasium.spaces import Discrete
 
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.learning.agents.checkpoint import META_FILE, load_checkpoint
@@ -97,7 +98,7 @@ def episodes_of(
     env = make_env(config, worlds=worlds, allow_eval_worlds=True)
     policy = greedy_policy(agent)
     if epsilon:
-        policy = epsilon_greedy(policy, int(env.action_space.n), epsilon, seed=0)
+        policy = epsilon_greedy(policy, int(cast(Discrete, env.action_space).n), epsilon, seed=0)
     try:
         return [greedy_episode(env, policy, w, "none", 0) for w in worlds]
     finally:
