@@ -47,6 +47,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="take B's runs from this results directory (e.g. the same method without the "
         "recovery layer); A and B may then be the same method",
     )
+    p.add_argument(
+        "--pair-by",
+        choices=("layout-seed", "layout"),
+        default="layout-seed",
+        help="unit of the paired test: (layout, evaluation seed), the default, or the layout "
+        "with each side averaged over its evaluation seeds (fewer units, not sharing a layout)",
+    )
     p.add_argument("--json", action="store_true", help="print the records as JSON")
     p.set_defaults(func=cmd_compare)
 
@@ -120,7 +127,12 @@ def job_rows_of(out: Path) -> list[dict[str, Any]]:
 
 def _compare(args: argparse.Namespace, a: str, b: str) -> None:
     # start-up cost: SciPy (~0.5 s), only for this command
-    from d3dwa_bullet.evaluation.paired import check_layouts, paired_by_group, paired_scores
+    from d3dwa_bullet.evaluation.paired import (
+        check_layouts,
+        paired_by_group,
+        paired_scores,
+        unit_of,
+    )
     from d3dwa_bullet.evaluation.seed_tables import improvement, improvement_table
     from d3dwa_bullet.method_specs import method_label
     from d3dwa_bullet.world.registry import world_groups
@@ -144,21 +156,27 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
     check_layouts(paired_scores(rows, key_a, key_b), a, b, source)
     shipped = world_groups()
     records = improvement(rows, key_a, key_b, lambda r: _groups_of(r, shipped))
-    group_of = {(r["world"], r["noise"], int(r["seed"])): _groups_of(r, shipped) for r in rows}
-    paired = paired_by_group(rows, key_a, key_b, group_of)
+    by_seed = args.pair_by == "layout-seed"
+    group_of = {unit_of(r, by_seed): _groups_of(r, shipped) for r in rows}
+    paired = paired_by_group(rows, key_a, key_b, group_of, by_seed)
     for record in records:
         test = paired.get(record["group"], {})
         record |= {f"paired_{k}": v for k, v in test.items()}
     if args.json:
         print(json_text({"results": str(out), "against": str(other), "a": a, "b": b,
-                          "recovery_a": rec_a, "recovery_b": rec_b,
+                          "recovery_a": rec_a, "recovery_b": rec_b, "pair_by": args.pair_by,
                           "complete": complete_a and complete_b, "groups": records}))  # fmt: skip
         return
     la, lb = labels[key_a], labels[key_b]
+    unit, pooled = (
+        ("(layout, noise, evaluation seed)", "training seeds")
+        if by_seed
+        else ("(layout, noise)", "training and evaluation seeds")
+    )
     print(
         f"P({la} > {lb}) on success per task (world, noise); 95 % stratified bootstrap "
-        f"over runs; 0.5 = no difference. Paired by (layout, noise, evaluation seed), each "
-        f"side's success averaged over its training seeds: A better / worse in how many "
-        f"pairs, and the one-sided Wilcoxon signed-rank p-value of A > B. From {source}.\n"
+        f"over runs; 0.5 = no difference. Paired by {unit}, each side's success averaged "
+        f"over its {pooled}: A better / worse in how many pairs, and the one-sided Wilcoxon "
+        f"signed-rank p-value of A > B. From {source}.\n"
     )
     print(improvement_table(records, key_a, key_b, labels), end="")

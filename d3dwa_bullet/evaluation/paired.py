@@ -5,7 +5,10 @@ task, with an interval over runs (training seeds): an effect size. It treats the
 runs as independent, although both ran on the same layouts. The paired test asks the other
 question, with the layouts as the sample: a *unit* is one (layout, noise, evaluation seed) that
 both methods ran; its score is each side's success there, averaged over its training seeds (a
-fixed or reference method has one episode per unit). The differences A - B over the units go
+fixed or reference method has one episode per unit). With several evaluation seeds their units
+share a layout and are not independent; ``by_seed=False`` makes the unit (layout, noise), each
+side's success averaged over its training and evaluation seeds there: fewer units, the
+conservative test. The differences A - B over the units go
 to the Wilcoxon signed-rank test (``scipy.stats.wilcoxon``, one-sided: A > B; units where the
 two agree are dropped, ``zero_method="wilcox"``). A p-value below 0.05 says A's success is
 higher on these layouts than chance pairing would give (docs/design.md#paired-test).
@@ -23,24 +26,29 @@ from scipy import stats
 from d3dwa_bullet.errors import ResultsError
 
 Row = Mapping[str, Any]
-Unit = tuple[str, str, int]
-"""(layout, noise, evaluation seed)."""
+Unit = tuple[str, str, int | None]
+"""(layout, noise, evaluation seed); the seed None when the unit pools every evaluation seed."""
 MIN_LAYOUTS = 2
 """Layouts two methods must share for a paired test: one layout is a single pair of scores."""
 
 
-def paired_scores(rows: Sequence[Row], a: str, b: str) -> dict[Unit, tuple[float, float]]:
+def unit_of(row: Row, by_seed: bool = True) -> Unit:
+    """The unit of a results row: (layout, noise, evaluation seed), the seed None unless by_seed."""
+    return (row["world"], row["noise"], int(row["seed"]) if by_seed else None)
+
+
+def paired_scores(
+    rows: Sequence[Row], a: str, b: str, by_seed: bool = True
+) -> dict[Unit, tuple[float, float]]:
     """{unit: (A's success, B's success)} over the units both methods ran, each side's success
-    averaged over its training seeds there."""
+    averaged over its training seeds there (and over its evaluation seeds unless by_seed)."""
     seen: dict[Unit, dict[str, list[bool]]] = defaultdict(lambda: defaultdict(list))
     for r in rows:
         if r["method"] in (a, b):
-            seen[(r["world"], r["noise"], int(r["seed"]))][r["method"]].append(
-                r["outcome"] == "goal"
-            )
+            seen[unit_of(r, by_seed)][r["method"]].append(r["outcome"] == "goal")
     return {
         u: (float(np.mean(per[a])), float(np.mean(per[b])))
-        for u, per in sorted(seen.items())
+        for u, per in sorted(seen.items(), key=lambda kv: (kv[0][0], kv[0][1], kv[0][2] or 0))
         if a in per and b in per
     }
 
@@ -76,10 +84,15 @@ def paired_test(scores: Mapping[Unit, tuple[float, float]]) -> dict[str, Any]:
 
 
 def paired_by_group(
-    rows: Sequence[Row], a: str, b: str, group_of: Mapping[Unit, Sequence[str]]
+    rows: Sequence[Row],
+    a: str,
+    b: str,
+    group_of: Mapping[Unit, Sequence[str]],
+    by_seed: bool = True,
 ) -> dict[str, dict[str, Any]]:
-    """:func:`paired_test` per group name (group_of: each unit's groups) and for "all"."""
-    scores = paired_scores(rows, a, b)
+    """:func:`paired_test` per group name (group_of: each unit's groups, units as
+    :func:`unit_of` makes them) and for "all"."""
+    scores = paired_scores(rows, a, b, by_seed)
     groups: dict[str, dict[Unit, tuple[float, float]]] = defaultdict(dict)
     for u, s in scores.items():
         for g in [*group_of.get(u, ()), "all"]:

@@ -62,6 +62,35 @@ def test_compare_prints_scipys_p_value_beside_p_of_improvement(monkeypatch, caps
     assert f"| {expected_p():.3g} |" in capsys.readouterr().out
 
 
+def test_pairing_by_layout_pools_the_evaluation_seeds(monkeypatch, capsys) -> None:
+    d = [
+        np.mean(A_GOALS[(w, 0)] + A_GOALS[(w, 1)]) - np.mean([B_GOALS[(w, 0)], B_GOALS[(w, 1)]])
+        for w in LAYOUTS
+    ]
+    expected = float(stats.wilcoxon(d, alternative="greater", zero_method="wilcox").pvalue)
+    scores = paired_scores(constructed(), "d3dwa", "dwa1", by_seed=False)
+    assert len(scores) == 8 and scores[("L0", "none", None)] == (5 / 6, 0.5)
+    assert paired_test(scores)["p"] == pytest.approx(expected, rel=1e-12)
+    assert expected != pytest.approx(expected_p(), rel=1e-3)  # a different test, not a relabel
+    rows = constructed()
+    monkeypatch.setattr(
+        compare,
+        "_side",
+        lambda out, m, warn=True: ([r for r in rows if r["method"] == m], "none", True),
+    )
+    argv = ["compare", "made-up", "--methods", "d3dwa,dwa1", "--pair-by", "layout", "--json"]
+    assert main(argv) == 0
+    printed = json.loads(capsys.readouterr().out)
+    overall = printed["groups"][-1]
+    assert printed["pair_by"] == "layout" and overall["paired_units"] == 8
+    assert overall["paired_p"] == pytest.approx(expected, rel=1e-12)
+    assert main(argv[:-1]) == 0
+    assert (
+        "Paired by (layout, noise), each side's success averaged over its training and "
+        "evaluation seeds" in capsys.readouterr().out
+    )
+
+
 @pytest.mark.parametrize(
     ("layouts", "says"),
     [(["L0"], "share only one layout (L0)"), ([], "share no layout: nothing to pair")],

@@ -89,6 +89,21 @@ def test_the_paired_headroom_tests_the_switch_against_every_method(tmp_path, cap
     assert records["d3dwa-dr"]["paired_wins"] == 1  # from the second sweep
     assert headroom.main([str(out), "--switch", "harsh=dwa3", "--paired", "--also", str(out)]) == 2
     assert "method 'dwa3' is also in" in capsys.readouterr().err
+    assert headroom.main([str(out), "--pair-by", "layout"]) == 2
+    assert "--pair-by needs --paired" in capsys.readouterr().err
+
+
+def test_the_paired_headroom_can_pool_evaluation_seeds_per_layout(tmp_path):
+    # two evaluation seeds per layout: 12 units by (layout, seed), 6 by layout
+    rows = rows_for("dwa3", "harsh", ["goal"] * 6) + rows_for("random@10", "harsh", ["timeout"] * 6)
+    rows += [r | {"seed": 1} for r in rows]
+    out = sweep_dir(tmp_path, rows)
+    by_seed = {r["method"]: r for r in headroom.paired([out], {"harsh": "dwa3"})}
+    by_layout = {r["method"]: r for r in headroom.paired([out], {"harsh": "dwa3"}, by_seed=False)}
+    assert by_seed["random@10"]["paired_units"] == 12
+    assert by_seed["random@10"]["paired_p"] == pytest.approx(1 / 2**12)
+    assert by_layout["random@10"]["paired_units"] == 6
+    assert by_layout["random@10"]["paired_p"] == pytest.approx(1 / 2**6)
 
 
 def test_the_sources_table_reads_each_condition_against_its_reference(tmp_path, capsys):

@@ -111,10 +111,13 @@ def _profile_rows(
     return by_profile, owner
 
 
-def paired(sweeps: Sequence[Path], switch: Mapping[str, str]) -> list[dict[str, Any]]:
+def paired(
+    sweeps: Sequence[Path], switch: Mapping[str, str], by_seed: bool = True
+) -> list[dict[str, Any]]:
     """Per profile of the switch and per method under it: P(switch > method) with its 95 %
     interval over training seeds, and the paired one-sided Wilcoxon test of switch > method
-    by layout (``d3dwa compare``'s statistics). sweeps[0] holds the switch's methods."""
+    by (layout, evaluation seed), or by layout pooling the evaluation seeds unless by_seed
+    (``d3dwa compare``'s statistics and its --pair-by). sweeps[0] holds the switch's methods."""
     rows, owner = _profile_rows(sweeps)
     records: list[dict[str, Any]] = []
     for profile, chosen in switch.items():
@@ -124,7 +127,7 @@ def paired(sweeps: Sequence[Path], switch: Mapping[str, str]) -> list[dict[str, 
         for method in dict.fromkeys(r["method"] for r in rows[profile]):
             both = played + [r for r in rows[profile] if r["method"] == method]
             p = improvement(both, SWITCH, method, lambda r: ())[-1]
-            test = paired_test(paired_scores(both, SWITCH, method))
+            test = paired_test(paired_scores(both, SWITCH, method, by_seed))
             records.append({"profile": profile, "switch": chosen, "method": method,
                             "p": p["p"], "low": p["low"], "high": p["high"]}
                            | {f"paired_{k}": v for k, v in test.items()})  # fmt: skip
@@ -183,13 +186,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="SWEEP",
         help="with --paired: more methods from another sweep of the same layouts",
     )
+    parser.add_argument(
+        "--pair-by",
+        choices=("layout-seed", "layout"),
+        help="with --paired: the paired test's unit, as in `d3dwa compare` (default layout-seed)",
+    )
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
     if args.also and not args.paired:
         parser.error("--also needs --paired")
+    if args.pair_by and not args.paired:
+        parser.error("--pair-by needs --paired")
     try:
         if args.paired:
-            records = paired([args.sweep, *args.also], parse_switch(args.switch))
+            by_seed = args.pair_by != "layout"
+            records = paired([args.sweep, *args.also], parse_switch(args.switch), by_seed)
             text = paired_markdown(records)
         else:
             records = headroom(args.sweep, parse_switch(args.switch))
