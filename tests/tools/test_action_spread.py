@@ -6,29 +6,24 @@ import numpy as np
 import pytest
 
 from d3dwa_bullet.controllers import default_policy_path
-from d3dwa_bullet.evaluation.jobs import log_name
-from d3dwa_bullet.evaluation.results import CSV_FIELDS, appending_rows, row_key
 from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint
 from d3dwa_bullet.planning.actions import ACTIONS_FULL
 from tests.support.held_policy import held_checkpoint
+from tests.support.results_logs import write_results
 from tools.experiments import action_spread
 
 
 def sweep_with_tuples(tmp_path, episodes, extra=None):
     """A results directory whose episodes (method, policy seed, [(wp, wc, ws, tau), ...]) hold
     each listed tuple for one step; extra: more arrays for every log."""
-    (tmp_path / "logs").mkdir(parents=True)
-    with appending_rows(tmp_path, CSV_FIELDS + ("axis", "level", "layout")) as append:
-        for i, (method, seed, tuples) in enumerate(episodes):
-            r = dict(world=f"L{i}", method=method, policy_seed=seed, seed=0, noise="harsh",
-                     axis="profile", level="", layout="generated", outcome="goal", time_s=1.0,
-                     tl_m=0.0, pd_rad=0.0, min_clearance_m=0.1, steps=len(tuples))  # fmt: skip
-            append(r)
-            key = row_key(r | {"policy_seed": None if seed == "" else seed})
-            cols = np.array(tuples, dtype=float).T
-            np.savez(tmp_path / "logs" / log_name(key), wp=cols[0], wc=cols[1], ws=cols[2],
-                     tau=cols[3], outcome="goal", **(extra or {}))  # fmt: skip
-    return tmp_path
+
+    def episode(i, method, seed, tuples):
+        row = dict(world=f"L{i}", method=method, policy_seed=seed, noise="harsh", steps=len(tuples))
+        cols = np.array(tuples, dtype=float).T
+        arrays = dict(wp=cols[0], wc=cols[1], ws=cols[2], tau=cols[3], outcome="goal")
+        return row, arrays | (extra or {})
+
+    return write_results(tmp_path, (episode(i, *e) for i, e in enumerate(episodes)))
 
 
 def test_perplexity_counts_the_effective_tuples():

@@ -4,11 +4,8 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
-
-from d3dwa_bullet.evaluation.jobs import log_name
-from d3dwa_bullet.evaluation.results import CSV_FIELDS, appending_rows, row_key
 from tests.evaluation.test_failures import log
+from tests.support.results_logs import write_results
 from tools.experiments.failure_modes import failure_records, main
 
 CIRCLE = dict(world="V", method="d3dwa", seed=0, noise="harsh")
@@ -23,14 +20,8 @@ def results_dir(tmp_path):
         dict(CIRCLE, policy_seed=0, outcome="timeout", pd_rad=21.0, time_s=20.0),
         dict(CIRCLE, policy_seed=1, outcome="goal", pd_rad=30.0, time_s=10.0),
     ]
-    (tmp_path / "logs").mkdir()
-    with appending_rows(tmp_path, CSV_FIELDS) as append:
-        for r in rows:
-            r = dict(time_s=1.0, tl_m=0.0, pd_rad=0.0, min_clearance_m=0.1, steps=10) | r
-            append(r)
-            key = row_key(r | {"policy_seed": None if r["policy_seed"] == "" else r["policy_seed"]})
-            np.savez(tmp_path / "logs" / log_name(key), **log(speed=0.0, outcome=r["outcome"]))
-    return tmp_path
+    episodes = ((r, log(speed=0.0, outcome=r["outcome"])) for r in rows)
+    return write_results(tmp_path, episodes, sweep=False)
 
 
 def test_failures_are_counted_by_mode_per_noise_and_method(tmp_path, capsys):

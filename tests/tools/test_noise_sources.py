@@ -7,10 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from d3dwa_bullet.evaluation.jobs import log_name
-from d3dwa_bullet.evaluation.results import CSV_FIELDS, appending_rows, row_key
 from randomization import load_profile
 from tests.evaluation.test_failures import log
+from tests.support.results_logs import write_results
 from tools.experiments import headroom, noise_sources, regime_probe
 from tools.experiments.storm_steps import storm_onsets, summarise
 
@@ -39,15 +38,7 @@ def test_a_lidar_source_takes_only_its_own_fields(tmp_path):
 
 
 def sweep_dir(tmp_path, rows):
-    (tmp_path / "logs").mkdir(parents=True)
-    with appending_rows(tmp_path, CSV_FIELDS + ("axis", "level", "layout")) as append:
-        for r in rows:
-            r = dict(time_s=1.0, tl_m=0.0, pd_rad=0.0, min_clearance_m=0.1, steps=10,
-                     level="", layout="generated") | r  # fmt: skip
-            append(r)
-            key = row_key(r | {"policy_seed": None if r["policy_seed"] == "" else r["policy_seed"]})
-            np.savez(tmp_path / "logs" / log_name(key), **log(speed=0.0, outcome=r["outcome"]))
-    return tmp_path
+    return write_results(tmp_path, ((r, log(speed=0.0, outcome=r["outcome"])) for r in rows))
 
 
 def rows_for(method, noise, outcomes, policy_seed=""):
