@@ -138,7 +138,7 @@ def test_sweep_writes_rows_tables_and_one_plot_per_axis(tiny_sweep):
     assert figs == ["sweep_lidar_dropout.png", "sweep_profiles.png", "sweep_slip.png"]
     assert all((out / "figures" / f).stat().st_size > 20_000 for f in figs)
     page = (out / "sweep.md").read_text()
-    assert "### wheel slip ratio" in page and "| DWA III (2,1,1) | shipped |" in page
+    assert "### wheel slip ratio" in page and "| DWA III (2,1,1) | given |" in page
 
 
 def test_resume_runs_only_missing_episodes(one_second_world, tmp_path, monkeypatch):
