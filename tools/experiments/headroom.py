@@ -89,7 +89,7 @@ def headroom(sweep: Path, switch: Mapping[str, str]) -> list[dict[str, Any]]:
     return records
 
 
-def _profile_rows(
+def profile_rows(
     sweeps: Sequence[Path],
 ) -> tuple[dict[str, list[Mapping[str, Any]]], dict[str, int]]:
     """Each profile's rows over the sweeps, and which sweep (its index) holds each method;
@@ -118,7 +118,7 @@ def paired(
     interval over training seeds, and the paired one-sided Wilcoxon test of switch > method
     by (layout, evaluation seed), or by layout pooling the evaluation seeds unless by_seed
     (``d3dwa compare``'s statistics and its --pair-by). sweeps[0] holds the switch's methods."""
-    rows, owner = _profile_rows(sweeps)
+    rows, owner = profile_rows(sweeps)
     records: list[dict[str, Any]] = []
     for profile, chosen in switch.items():
         played = [{**r, "method": SWITCH} for r in rows.get(profile, []) if r["method"] == chosen]

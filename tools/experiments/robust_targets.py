@@ -1,0 +1,133 @@
+"""Issue 40's targets for one randomised method, each met or missed, from sweeps of its layouts.
+
+Every figure is one that ``d3dwa compare`` or ``headroom`` prints for the same rows; this tool
+only gathers them and reads each against the target the issue fixed (nothing is tuned here):
+
+- under ``harsh``: P(M > ``d3dwa``) with its lower end above 0.5; P(M > DWA III) with its upper
+  end at or above 0.5; success at least 88 %;
+- under ``real``: P(M > DWA III) and P(M > ``d3dwa``), each with its upper end at or above 0.5;
+- under ``none``: P(M > ``d3dwa``) with its upper end at or above 0.5;
+- under every profile: M above the uniform chooser held at its decision period (``--floor``,
+  default ``random@10``), one-sided paired p below 0.05;
+- the moonshot: one training seed at or above 90 % under ``none``, ``real`` and ``harsh``.
+
+P is the probability of improvement with its 95 % stratified bootstrap interval over training
+seeds; the paired p is the one-sided Wilcoxon signed-rank test by (layout, evaluation seed),
+or by layout with ``--pair-by layout`` (docs/design.md#paired-test). Success is the mean over
+layouts of each training seed's success there.
+
+    python -m tools.experiments.robust_targets runs/profiles3-nav2 --also runs/r3-nav2
+    python -m tools.experiments.robust_targets runs/seeds3-nav2 --method d3dwa-history-dr
+"""
+
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation.paired import paired_scores, paired_test
+from d3dwa_bullet.evaluation.seed_tables import improvement
+from tools.entry import ToolParser, tool_main
+from tools.experiments.headroom import profile_rows, success
+
+Rows = Sequence[Mapping[str, Any]]
+PROFILES = ("none", "real", "harsh")
+NOT_BELOW = {"none": ("d3dwa",), "real": ("dwa3", "d3dwa"), "harsh": ("dwa3",)}
+"""Per profile, the methods the randomised one must not be below (P upper end >= 0.5)."""
+HARSH_SUCCESS = 0.88
+MOONSHOT = 0.90
+ALPHA = 0.05
+
+
+def _p(rows: Rows, a: str, b: str) -> dict[str, float]:
+    p = improvement(rows, a, b, lambda r: ())[-1]
+    return {"p": p["p"], "low": p["low"], "high": p["high"]}
+
+
+def _record(profile: str, target: str, measured: str, met: bool, **figures: Any) -> dict[str, Any]:
+    return {"profile": profile, "target": target, "measured": measured, "met": bool(met)} | figures
+
+
+def _interval(p: Mapping[str, float]) -> str:
+    return f"{p['p']:.2f} [{p['low']:.2f}, {p['high']:.2f}]"
+
+
+def targets(
+    sweeps: Sequence[Path], method: str, floor: str = "random@10", by_seed: bool = True
+) -> list[dict[str, Any]]:
+    """One record per target: profile, target, measured (text), met, and the figures."""
+    rows, _ = profile_rows(sweeps)
+    for profile in PROFILES:
+        present = {r["method"] for r in rows.get(profile, [])}
+        for m in (method, *NOT_BELOW[profile], "d3dwa", floor):
+            if m not in present:
+                where = ", ".join(map(str, sweeps))
+                raise ResultsError(f"{where}: no rows of {m!r} under profile {profile!r}")
+    out: list[dict[str, Any]] = []
+    for profile in PROFILES:
+        here = rows[profile]
+        if profile == "harsh":
+            p = _p(here, method, "d3dwa")
+            out.append(_record(profile, "beats d3dwa (P lower end > 0.5)", _interval(p),
+                               p["low"] > 0.5, **p))  # fmt: skip
+        for other in NOT_BELOW[profile]:
+            p = _p(here, method, other)
+            out.append(_record(profile, f"not below {other} (P upper end >= 0.5)", _interval(p),
+                               p["high"] >= 0.5, **p))  # fmt: skip
+        if profile == "harsh":
+            s = success([r for r in here if r["method"] == method])
+            out.append(_record(profile, f"success >= {HARSH_SUCCESS:.0%}",
+                               f"{s['success']:.0%} [{s['low']:.0%}, {s['high']:.0%}]",
+                               s["success"] >= HARSH_SUCCESS, **s))  # fmt: skip
+        test = paired_test(paired_scores(here, method, floor, by_seed))
+        pv = test["p"]
+        out.append(_record(profile, f"above {floor} (paired p < {ALPHA})",
+                           "n/a" if pv is None else f"p {pv:.3g} ({test['wins']} better / {test['losses']} worse)",
+                           pv is not None and pv < ALPHA, **test))  # fmt: skip
+    per_seed: dict[Any, dict[str, list[bool]]] = defaultdict(lambda: defaultdict(list))
+    for profile in PROFILES:
+        for r in rows[profile]:
+            if r["method"] == method:
+                per_seed[r["policy_seed"]][profile].append(r["outcome"] == "goal")
+    worst = {k: min(sum(v[p]) / len(v[p]) for p in PROFILES) for k, v in per_seed.items()}
+    best = max(worst, key=lambda k: worst[k])
+    out.append(_record("all", f"moonshot: one seed >= {MOONSHOT:.0%} under {', '.join(PROFILES)}",
+                       f"seed {best}: {worst[best]:.0%} at its worst profile",
+                       worst[best] >= MOONSHOT, worst_per_seed=worst))  # fmt: skip
+    return out
+
+
+def markdown(records: Sequence[Mapping[str, Any]], method: str) -> str:
+    lines = [f"| profile | target for {method} | measured | met |", "|---|---|---|---|"]
+    lines += [f"| {r['profile']} | {r['target']} | {r['measured']} | {'yes' if r['met'] else 'no'} |"
+              for r in records]  # fmt: skip
+    met = sum(r["met"] for r in records)
+    return "\n".join(lines) + f"\n\n{met} of {len(records)} targets met.\n"
+
+
+@tool_main
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = ToolParser(prog="robust_targets", description=__doc__.split("\n")[0])
+    parser.add_argument("sweep", type=Path, help="a `d3dwa sweep` with profiles none, real, harsh")
+    parser.add_argument(
+        "--method", default="d3dwa-dr", help="the randomised method (default %(default)s)"
+    )
+    parser.add_argument("--floor", default="random@10",
+                        help="the uniform chooser at the method's period (default %(default)s)")  # fmt: skip
+    parser.add_argument("--also", type=Path, action="append", default=[], metavar="SWEEP",
+                        help="more methods from another sweep of the same layouts")  # fmt: skip
+    parser.add_argument("--pair-by", choices=("layout-seed", "layout"), default="layout-seed",
+                        help="the paired test's unit, as in `d3dwa compare`")  # fmt: skip
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args(argv)
+    records = targets([args.sweep, *args.also], args.method, args.floor, args.pair_by != "layout")
+    print(json.dumps(records, indent=1) if args.json else markdown(records, args.method), end="")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
