@@ -211,6 +211,7 @@ def sweep_figure(
     layouts = list(series)
     methods = list(dict.fromkeys(m for per in series.values() for m in per))
     colours = method_colours(methods)
+    crowded = len(methods) > 3  # count labels wider than their bars: set upright
     fig, axes = plt.subplots(
         2, len(layouts), figsize=(5.6 * len(layouts) + 0.6, 7.2), squeeze=False, sharex="col"
     )
@@ -250,9 +251,12 @@ def sweep_figure(
             ok = np.isfinite(tm)
             if bars:
                 top.bar(x, rate, width, yerr=err, capsize=2, ecolor="0.25", **kw)
-                for xi, s in zip(x, st, strict=True):  # counts: a 0 % bar is otherwise invisible
+                # counts: a 0 % bar is otherwise invisible; upright when bars crowd
+                turn = 90 if crowded else 0
+                for xi, s in zip(x, st, strict=True):
                     top.annotate(f"{s.successes}/{s.n}", (xi, 100 * s.rate_hi), ha="center",
-                                 va="bottom", fontsize=6, xytext=(0, 1), textcoords="offset points")  # fmt: skip
+                                 va="bottom", fontsize=6, xytext=(0, 1), textcoords="offset points",
+                                 rotation=turn)  # fmt: skip
                 if ok.any():
                     bottom.bar(
                         x[ok], tm[ok], width, yerr=terr[:, ok], capsize=2, ecolor="0.25", **kw
@@ -265,7 +269,8 @@ def sweep_figure(
             any_time[col] = any_time[col] or bool(ok.any())
         top, bottom = axes[0, col], axes[1, col]
         top.set_title(column_titles.get(layout, layout), fontsize=9)
-        top.set_ylim(-3, 108 if bars else 103)
+        top.set_ylim(-3, (126 if crowded else 108) if bars else 103)
+        top.set_yticks(range(0, 101, 20))
         if not any_time[col]:
             bottom.text(0.5, 0.5, "no successful episode", transform=bottom.transAxes,
                         ha="center", va="center", color="0.4")  # fmt: skip
