@@ -48,7 +48,7 @@ def test_a_seed_failing_harsh_misses_success_and_dwa3_not_the_moonshot(tmp_path,
     assert moonshot["met"] and moonshot["worst_per_seed"] == {0: 1.0, 1: 0.5}
     assert robust_targets.main([str(out)]) == 0
     printed = capsys.readouterr().out
-    assert "| harsh | success >= 88% | 75% [" in printed and "8 of 10 targets met." in printed
+    assert "| harsh | success >= 88% | 75.0% [" in printed and "8 of 10 targets met." in printed
     missed = [k for k, r in records.items() if not r["met"]]
     assert missed == [("harsh", "not below dwa3 (P upper end >= 0.5)"), ("harsh", "success >= 88%")]
 
@@ -58,3 +58,18 @@ def test_a_missing_method_is_one_line(tmp_path, capsys):
     assert robust_targets.main([str(out), "--method", "d3dwa-history-dr"]) == 2
     err = capsys.readouterr().err.strip()
     assert "no rows of 'd3dwa-history-dr' under profile 'none'" in err and "\n" not in err
+
+
+def test_the_switch_is_read_as_one_candidate_with_the_fixed_planner_in_every_seed(tmp_path, capsys):
+    out = sweep(tmp_path)
+    switch = {"none": "d3dwa", "real": "d3dwa", "harsh": "dwa3"}
+    records = robust_targets.targets([out], "headroom", switch=switch)
+    harsh = next(r for r in records if r["target"] == "success >= 88%")
+    assert harsh["success"] == 1.0  # DWA III's goals on every layout
+    moonshot = records[-1]
+    # d3dwa's seeds reach 50 % under none and real; DWA III's one run counts for both seeds
+    assert moonshot["worst_per_seed"] == {0: 0.5, 1: 0.5} and not moonshot["met"]
+    fixed = robust_targets.targets([out], "dwa3")[-1]
+    assert fixed["worst_per_seed"] == {None: 1.0}
+    assert robust_targets.main([str(out), "--switch", "none=d3dwa"]) == 2
+    assert "--switch names no method for profile real, harsh" in capsys.readouterr().err
