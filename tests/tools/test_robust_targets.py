@@ -73,3 +73,5 @@ def test_the_switch_is_read_as_one_candidate_with_the_fixed_planner_in_every_see
     assert fixed["worst_per_seed"] == {None: 1.0}
     assert robust_targets.main([str(out), "--switch", "none=d3dwa"]) == 2
     assert "--switch names no method for profile real, harsh" in capsys.readouterr().err
+    assert robust_targets.main([str(out), "--method", "dwa3", "--switch", "none=d3dwa"]) == 2
+    assert "--method and --switch name two candidates" in capsys.readouterr().err

@@ -144,9 +144,7 @@ def markdown(records: Sequence[Mapping[str, Any]], method: str) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = ToolParser(prog="robust_targets", description=__doc__.split("\n")[0])
     parser.add_argument("sweep", type=Path, help="a `d3dwa sweep` with profiles none, real, harsh")
-    parser.add_argument(
-        "--method", default="d3dwa-dr", help="the randomised method (default %(default)s)"
-    )
+    parser.add_argument("--method", help="the randomised method (default d3dwa-dr)")
     parser.add_argument("--floor", default="random@10",
                         help="the uniform chooser at the method's period (default %(default)s)")  # fmt: skip
     parser.add_argument("--also", type=Path, action="append", default=[], metavar="SWEEP",
@@ -157,8 +155,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="the candidate is headroom's switch (none, real and harsh each named)")  # fmt: skip
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
-    switch, method = None, args.method
+    switch, method = None, args.method or "d3dwa-dr"
     if args.switch:
+        if args.method:
+            parser.error("--method and --switch name two candidates: give one")
         switch, method = parse_switch(args.switch), SWITCH
         if missing := [p for p in PROFILES if p not in switch]:
             parser.error(f"--switch names no method for profile {', '.join(missing)}")
