@@ -180,3 +180,10 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
         f"signed-rank p-value of A > B. From {source}.\n"
     )
     print(improvement_table(records, key_a, key_b, labels), end="")
+    seeds = {int(r["seed"]) for r in rows}
+    if by_seed and len(seeds) > 1:
+        print(
+            f"\n{len(seeds)} evaluation seeds share each layout, so these pairs are not "
+            "independent (without noise a fixed or greedy method repeats its episode at every "
+            "seed): `--pair-by layout` is the conservative test (docs/design.md#paired-test)."
+        )

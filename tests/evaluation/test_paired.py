@@ -59,7 +59,9 @@ def test_compare_prints_scipys_p_value_beside_p_of_improvement(monkeypatch, caps
     assert overall["paired_p"] == pytest.approx(expected_p(), rel=1e-12)
     assert 0.5 < overall["p"] <= 1.0  # P(A > B), rliable-style, stays beside it
     assert main(["compare", "made-up", "--methods", "d3dwa,dwa1"]) == 0
-    assert f"| {expected_p():.3g} |" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert f"| {expected_p():.3g} |" in printed
+    assert "2 evaluation seeds share each layout" in printed  # and points to --pair-by layout
 
 
 def test_pairing_by_layout_pools_the_evaluation_seeds(monkeypatch, capsys) -> None:
@@ -85,10 +87,12 @@ def test_pairing_by_layout_pools_the_evaluation_seeds(monkeypatch, capsys) -> No
     assert printed["pair_by"] == "layout" and overall["paired_units"] == 8
     assert overall["paired_p"] == pytest.approx(expected, rel=1e-12)
     assert main(argv[:-1]) == 0
+    printed = capsys.readouterr().out
     assert (
         "Paired by (layout, noise), each side's success averaged over its training and "
-        "evaluation seeds" in capsys.readouterr().out
+        "evaluation seeds" in printed
     )
+    assert "evaluation seeds share each layout" not in printed
 
 
 @pytest.mark.parametrize(
