@@ -12,8 +12,9 @@ only gathers them and reads each against the target the issue fixed (nothing is 
 - the moonshot: one training seed at or above 90 % under ``none``, ``real`` and ``harsh``.
 
 P is the probability of improvement with its 95 % stratified bootstrap interval over training
-seeds; the paired p is the one-sided Wilcoxon signed-rank test by (layout, evaluation seed),
-or by layout with ``--pair-by layout`` (docs/design.md#paired-test). Success is the mean over
+seeds; the paired p is the one-sided Wilcoxon signed-rank test paired by layout, as the issue
+asks (evaluation seeds pooled per layout; by (layout, evaluation seed) with ``--pair-by
+layout-seed``, docs/design.md#paired-test). Success is the mean over
 layouts of each training seed's success there.
 
     python -m tools.experiments.robust_targets runs/profiles3-nav2 --also runs/r3-nav2
@@ -149,8 +150,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="the uniform chooser at the method's period (default %(default)s)")  # fmt: skip
     parser.add_argument("--also", type=Path, action="append", default=[], metavar="SWEEP",
                         help="more methods from another sweep of the same layouts")  # fmt: skip
-    parser.add_argument("--pair-by", choices=("layout-seed", "layout"), default="layout-seed",
-                        help="the paired test's unit, as in `d3dwa compare`")  # fmt: skip
+    parser.add_argument("--pair-by", choices=("layout-seed", "layout"), default="layout",
+                        help="the paired test's unit, as in `d3dwa compare` (default %(default)s, "
+                        "the issue's: evaluation seeds pooled per layout)")  # fmt: skip
     parser.add_argument("--switch", metavar="PROFILE=METHOD,...",
                         help="the candidate is headroom's switch (none, real and harsh each named)")  # fmt: skip
     parser.add_argument("--json", action="store_true")
