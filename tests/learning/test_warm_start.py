@@ -67,6 +67,10 @@ def test_a_warm_started_run_learns_and_repeats_itself(
         ({"init_policy": "SEEDS", "agent": replace(SMALL_AGENT, hidden=(8, 8))}, "hidden"),
         ({"init_policy": "SEEDS", "decision_steps": 5}, "decision_steps 1"),
         ({"init_policy": "SEEDS", "recovery": "nav2"}, "recovery 'none'"),
+        (
+            {"init_policy": "SEEDS", "scan_filter": "median"},
+            "scan_filter 'none', this run has 'median'",
+        ),
         ({"init_policy": "SEEDS", "method": "d3dwa-weights"}, "action set"),
     ],
 )

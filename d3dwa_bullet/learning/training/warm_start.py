@@ -10,7 +10,9 @@ a warm-started run is as reproducible as any other.
 is taken) or one policy folder; a bare name with no such folder here is a shipped method's
 policies (``d3dwa`` -> the install's ``policies/d3dwa``). ``source`` resolves and checks it
 when a run starts, before any work: a D3QN of the run's action set, observation, network,
-decision period and recovery layer, or ConfigError naming the field and what differs.
+decision period, recovery layer and scan filter, or ConfigError naming the field and what
+differs (a network trained on unfiltered scans would start a run behind a filter with inputs
+it never saw, and the run's record would not say so).
 """
 
 from __future__ import annotations
@@ -69,7 +71,7 @@ def source(config: TrainConfig) -> WarmStart | None:
 
     ConfigError naming ``init_policy`` when the folder is missing, unreadable, a tabular
     policy, or differs from the run in action set, observation, hidden layers, decision
-    period or recovery layer."""
+    period, recovery layer or scan filter."""
     if config.init_policy is None:
         return None
     folder = _folder(config.init_policy, config.seed)
@@ -85,7 +87,11 @@ def source(config: TrainConfig) -> WarmStart | None:
         raise ConfigError(f"{FIELD}: {err}") from err
     if not isinstance(agent, D3QNAgent) or config.family != "d3qn":
         raise ConfigError(f"{FIELD}: {folder} is not a D3QN policy of a D3QN method's run")
-    run_terms = {"decision_steps": config.decision_steps, "recovery": config.recovery}
+    run_terms: dict[str, object] = {
+        "decision_steps": config.decision_steps,
+        "recovery": config.recovery,
+        "scan_filter": config.scan_filter,
+    }
     run_terms["hidden"] = list(config.agent.hidden)  # type: ignore[union-attr]
     have = {**terms, "hidden": list(agent.config.hidden)}
     for term, want in run_terms.items():
