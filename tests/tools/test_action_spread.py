@@ -83,6 +83,29 @@ def test_margins_read_the_network_at_each_decision_step(tmp_path, capsys):
     assert "--policy reads one method's seeds" in capsys.readouterr().err
     assert action_spread.main([str(out), "--methods", "d3dwa", "--policy", str(tmp_path)]) == 2
     assert "no seed-<k> folders" in capsys.readouterr().err
-    tables = str(default_policy_path("dqdwa"))  # the shipped tabular seeds: no network to read
-    assert action_spread.main([str(out), "--methods", "d3dwa", "--policy", tables]) == 2
-    assert "a dqdwa table, not a Q-network" in capsys.readouterr().err
+
+
+def test_margins_of_a_tabular_policy_read_its_table_at_the_discretised_state(tmp_path):
+    from d3dwa_bullet.learning.agents.policy import all_q_values
+    from d3dwa_bullet.planning.actions import ActionSet
+
+    tables = default_policy_path("dqdwa")  # the shipped DQDWA seeds, deciding every 10 steps
+    agent, meta = load_checkpoint(tables / "seed-0")
+    actions = ActionSet.from_dict(meta["actions"])
+    obs = np.random.default_rng(1).uniform(0.0, 3.0, (30, 12)).astype(np.float32)
+    q = all_q_values(agent, obs)
+    assert q.shape == (30, 25)
+    state = agent.discretisation.state_index(obs[10])
+    assert np.array_equal(q[10], agent.table[state])  # the table's row for that state
+    chosen = np.repeat(q[::10].argmax(axis=1), 10)
+    tuples = [tuple(actions.decode(int(a))) for a in chosen]
+    out = sweep_with_tuples(tmp_path, [("dqdwa", "0", tuples)],
+                            {"observations": obs, "action": chosen})  # fmt: skip
+    (rec,) = action_spread.spread(out, ["dqdwa"], (2.0, 1.0, 1.0, 4.0), tables)
+    top = np.sort(q[::10], axis=1)
+    assert rec["decisions"] == 3 and rec["argmax_is_logged"] == 1.0
+    assert rec["best_minus_second"] == pytest.approx(float(np.median(top[:, -1] - top[:, -2])))
+    dwa3 = actions.encode((2.0, 1.0, 1.0, 4.0))
+    assert rec["best_minus_reference"] == pytest.approx(
+        float(np.median(top[:, -1] - q[::10, dwa3]))
+    )

@@ -10,7 +10,8 @@ planner wins with?
 
 ``--policy FOLDER`` (the seed-<k> folders the sweep drove, one learned method) also reads how
 sure each seed is of its choices: at every decision step of its logs (each ``decision_steps``-th
-step) it evaluates the seed's network on the logged observation and reports the medians of
+step) it evaluates the seed's network (or DQDWA's table, at the logged observation's
+discretised state) on the logged observation and reports the medians of
 Q(best) - Q(second best) and Q(best) - Q(reference tuple), and how often the network's argmax
 is the logged action (1.0 unless the logs are not this policy's).
 
@@ -103,11 +104,10 @@ def spread(
 
 
 def _networks(policy: Path, reference: Tuple4) -> dict[int, tuple[Any, int, int]]:
-    """{seed: (its D3QN agent, the reference tuple's action index, its decision period)} of
-    the seed-<k> folders of ``policy``; ResultsError for none or for a tabular policy."""
+    """{seed: (its agent, a D3QN or a DQDWA table; the reference tuple's action index; its
+    decision period)} of the seed-<k> folders of ``policy``; ResultsError for none."""
     # start-up cost: torch, only with --policy
     from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint
-    from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
     from d3dwa_bullet.learning.agents.policy_terms import checkpoint_terms
     from d3dwa_bullet.planning.actions import ActionSet, PlannerAction
 
@@ -117,8 +117,6 @@ def _networks(policy: Path, reference: Tuple4) -> dict[int, tuple[Any, int, int]
     networks = {}
     for k, folder in folders.items():
         agent, meta = load_checkpoint(folder)
-        if not isinstance(agent, D3QNAgent):
-            raise ResultsError(f"--policy {folder}: a {meta.get('method')} table, not a Q-network")
         ref = ActionSet.from_dict(meta["actions"]).encode(PlannerAction(*reference))
         networks[k] = (agent, ref, checkpoint_terms(meta, str(folder / "meta.json"))[0])
     return networks
@@ -127,8 +125,10 @@ def _networks(policy: Path, reference: Tuple4) -> dict[int, tuple[Any, int, int]
 def _decision_margins(log: Mapping[str, Any], agent: Any, ref: int, period: int) -> np.ndarray:
     """Per decision step of an episode's log (each ``period``-th step): Q(best) - Q(2nd),
     Q(best) - Q(ref), and whether the network's argmax is the logged action."""
+    from d3dwa_bullet.learning.agents.policy import all_q_values
+
     at = slice(0, None, period)
-    q = np.asarray(agent.q_values(log["observations"][at]))
+    q = all_q_values(agent, log["observations"][at])
     chosen = np.asarray(log["action"], dtype=int)[at]
     top = np.sort(q, axis=1)
     return np.column_stack(

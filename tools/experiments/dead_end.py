@@ -21,10 +21,10 @@ from typing import Any
 import numpy as np
 
 from d3dwa_bullet.errors import D3DWAError
-from d3dwa_bullet.learning.agents.policy import greedy_policy
+from d3dwa_bullet.learning.agents.policy import all_q_values, greedy_policy
 from d3dwa_bullet.learning.training.config import make_env
 from tools.entry import ToolParser, tool_main
-from tools.experiments.value_check import load, q_table
+from tools.experiments.value_check import load
 
 MOVED = 0.1
 """Metres towards the goal a branch must make to count as leaving the state."""
@@ -47,7 +47,7 @@ def branches(
 
     try:
         obs0, info0 = branch_point()
-        q0 = q_table(agent, obs0[None])[0]
+        q0 = all_q_values(agent, obs0[None])[0]
         tried = list(range(len(q0))) if actions is None else actions
         for a in tried:  # all checked before any branch is replayed
             if not 0 <= a < len(q0):

@@ -34,7 +34,12 @@ from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.learning.agents.checkpoint import META_FILE, load_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
-from d3dwa_bullet.learning.agents.policy import Policy, greedy_policy, taken_q_values
+from d3dwa_bullet.learning.agents.policy import (
+    Policy,
+    all_q_values,
+    greedy_policy,
+    taken_q_values,
+)
 from d3dwa_bullet.learning.tasks import resolve_world
 from d3dwa_bullet.learning.training import load_train_config
 from d3dwa_bullet.learning.training.config import make_env
@@ -105,13 +110,6 @@ def episodes_of(
         env.close()
 
 
-def q_table(agent: D3QNAgent | DQDWAAgent, obs: np.ndarray) -> np.ndarray:
-    """All actions' Q for a batch of observations (T, n_actions)."""
-    if isinstance(agent, D3QNAgent):
-        return agent.q_values(obs.astype(np.float32)).astype(np.float64)
-    return np.stack([agent.table[agent.discretisation.state_index(o)] for o in obs])
-
-
 def check(path: Path, epsilon: float = 0.0, worlds: tuple[str, ...] = WORLDS) -> dict[str, Any]:
     """Every figure of the module docstring for one policy directory (``epsilon`` > 0: the
     episodes act epsilon-greedily instead, a diagnostic of whose returns the values follow;
@@ -141,7 +139,7 @@ def check(path: Path, epsilon: float = 0.0, worlds: tuple[str, ...] = WORLDS) ->
             ],
         })  # fmt: skip
     visited = np.concatenate(states)
-    tables = {label: q_table(agent, visited) for label, (agent, _) in agents.items()}
+    tables = {label: all_q_values(agent, visited) for label, (agent, _) in agents.items()}
     greedy = {label: t.argmax(axis=1) for label, t in tables.items()}
     pairs = [float(np.mean(greedy[a] == greedy[b])) for a, b in itertools.combinations(greedy, 2)]
     n_actions = next(iter(tables.values())).shape[1]

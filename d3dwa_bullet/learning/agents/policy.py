@@ -117,14 +117,19 @@ def load_policy(
     return policy, agent.actions, meta
 
 
-def taken_q_values(agent: Agent, obs: np.ndarray, actions: np.ndarray) -> np.ndarray:
-    """The agent's own Q(s_t, a_t) for a sequence of observations (T, obs_dim) and the
-    actions taken in them (T,): the online network's for a D3QN, the table's for DQDWA."""
-    actions = np.asarray(actions, dtype=np.int64)
-    rows = np.arange(len(actions))
+def all_q_values(agent: Agent, obs: np.ndarray) -> np.ndarray:
+    """The agent's Q(s_t, a) for every action, for a sequence of observations (T, obs_dim):
+    (T, n_actions), the online network's for a D3QN, the table's rows for DQDWA."""
     if isinstance(agent, D3QNAgent):
-        return agent.q_values(np.asarray(obs, dtype=np.float32))[rows, actions].astype(np.float64)
+        return agent.q_values(np.asarray(obs, dtype=np.float32)).astype(np.float64)
     if isinstance(agent, DQDWAAgent):
         states = [agent.discretisation.state_index(o) for o in obs]
-        return agent.table[states, actions].astype(np.float64)
-    raise TypeError(f"taken_q_values: unsupported agent type {type(agent).__name__}")
+        return agent.table[states].astype(np.float64)
+    raise TypeError(f"all_q_values: unsupported agent type {type(agent).__name__}")
+
+
+def taken_q_values(agent: Agent, obs: np.ndarray, actions: np.ndarray) -> np.ndarray:
+    """The agent's own Q(s_t, a_t) for a sequence of observations (T, obs_dim) and the
+    actions taken in them (T,) (:func:`all_q_values` at the taken actions)."""
+    actions = np.asarray(actions, dtype=np.int64)
+    return all_q_values(agent, obs)[np.arange(len(actions)), actions]
