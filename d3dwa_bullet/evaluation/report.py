@@ -40,7 +40,7 @@ from d3dwa_bullet.evaluation.sweep import (
     sweep_figures,
     sweep_markdown,
 )
-from d3dwa_bullet.evaluation.tables import paper_table, run_notes, scan_filter_of
+from d3dwa_bullet.evaluation.tables import paper_table, repeats_note, run_notes, scan_filter_of
 from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text
 from d3dwa_bullet.limits import MAX_NOTE_CHARS, MAX_NOTE_VALUE_CHARS, cut_text
 from d3dwa_bullet.method_specs import method_label
@@ -91,6 +91,7 @@ def eval_markdown(
         f"# {title or 'Evaluation: ' + ', '.join(worlds)}\n\n"
         f"{run_notes(recovery, policy_notes, scan_filter)}"
         f"Noise profile: `{noise}`; evaluation seeds: {span}.\n\n"
+        f"{repeats_note(len(seeds), 'their cells') if noise == 'none' else ''}"
         f"{keys}"
         "## Over training seeds\n\n"
         "A run is one training seed of a learned method (its episodes averaged) or one "

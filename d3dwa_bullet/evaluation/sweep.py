@@ -60,7 +60,7 @@ from d3dwa_bullet.evaluation.sweep_settings import (
     SweepSettings,
     episode_count,
 )
-from d3dwa_bullet.evaluation.tables import run_notes, series_table
+from d3dwa_bullet.evaluation.tables import repeats_note, run_notes, series_table
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.limits import MAX_EPISODES
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
@@ -240,6 +240,8 @@ def sweep_markdown(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -
         "Cells: successes/episodes, mean time to goal of the successes ± half-width of the "
         "95 % t-interval. Layouts: " + "; ".join(f"*{k}* = {v}" for k, v in titles.items()) + ".\n"
     ]
+    if note := repeats_note(settings.seeds, "their noise-free cells (level 0, profile `none`)"):
+        parts.append("\n" + note.rstrip("\n") + "\n")
     for name in settings.axes:
         axis = AXES[name]
         levels = [0.0, *axis.levels(settings.levels)]

@@ -121,6 +121,20 @@ def run_notes(recovery: str, policy_notes: Sequence[str] = (), scan_filter: str 
     )
 
 
+def repeats_note(seeds: int, cells: str) -> str:
+    """What a page says when it has several evaluation seeds of noise-free episodes: nothing is
+    drawn from the episode seed without noise but the random choosers' actions, so a fixed
+    method or a learned (greedy) policy repeats its episode (empty for one seed)."""
+    if seeds <= 1:
+        return ""
+    return (
+        f"Without noise nothing is drawn from the episode seed but the random choosers' "
+        f"actions: a fixed method or a learned policy runs the same episode at each of the "
+        f"{seeds} evaluation seeds, so {cells} count every world {seeds} times and their "
+        f"intervals are that much too narrow.\n\n"
+    )
+
+
 def scan_filter_of(meta: Mapping[str, Any]) -> str:
     """The scan filter a results directory's episodes ran with (its meta.json ``config``)."""
     config = meta.get("config")

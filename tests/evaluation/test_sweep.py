@@ -19,8 +19,9 @@ import pytest
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation import jobs as evaluation
-from d3dwa_bullet.evaluation.jobs import evaluate
+from d3dwa_bullet.evaluation.jobs import evaluate, row_log
 from d3dwa_bullet.evaluation.noise_axes import AXES
+from d3dwa_bullet.evaluation.report import eval_markdown
 from d3dwa_bullet.evaluation.stats import t_interval, wilson_interval
 from d3dwa_bullet.evaluation.sweep import (
     SWEEP_FIELDS,
@@ -30,10 +31,12 @@ from d3dwa_bullet.evaluation.sweep import (
     read_sweep,
     run_sweep,
     sweep_jobs,
+    sweep_markdown,
     sweep_worlds,
 )
 from d3dwa_bullet.sim.noise_config import NoiseConfig
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
+from d3dwa_bullet.world.registry import load_world
 
 
 def tiny_settings(world: str, **kw) -> SweepSettings:
@@ -70,6 +73,38 @@ def test_unseen_layouts_come_from_outside_the_training_seed_range():
     assert names == ["R1", *(f"R{i}-style-s{UNSEEN_LAYOUT_SEED_BASE}" for i in (1, 2, 3))]
     assert [g for _, g in pairs] == ["shipped"] + ["generated"] * 3
     assert UNSEEN_LAYOUT_SEED_BASE >= 2**31  # training draws generator seeds in [0, 2^31)
+
+
+def test_without_noise_only_the_random_choosers_draw_from_the_episode_seed(
+    one_second_world, tmp_path
+):
+    world = load_world(one_second_world)
+    jobs = [evaluation.Job(world, m, seed) for m in ("dwa3", "random") for seed in (0, 1)]
+    rows = {(r["method"], r["seed"]): r for r in evaluate(jobs, tmp_path, progress=False)}
+    logs = {k: row_log(tmp_path, r) for k, r in rows.items()}
+    assert np.array_equal(logs[("dwa3", 0)]["action"], logs[("dwa3", 1)]["action"])
+    for k in ("true_x", "true_y", "v_cmd", "w_cmd"):
+        assert np.array_equal(logs[("dwa3", 0)][k], logs[("dwa3", 1)][k]), k
+    assert not np.array_equal(logs[("random", 0)]["action"], logs[("random", 1)]["action"])
+
+
+def test_the_page_says_when_noise_free_cells_count_one_episode_several_times(
+    tiny_sweep, one_second_world
+):
+    _, rows, _ = tiny_sweep
+    once = sweep_markdown(rows, tiny_settings(one_second_world))
+    twice = sweep_markdown(rows, tiny_settings(one_second_world, seeds=2))
+    assert "runs the same episode" not in once
+    assert "runs the same episode at each of the 2 evaluation seeds" in twice
+    assert "count every world 2 times" in twice
+    noise_free = [r for r in rows if r["noise"] == "none"]
+    world = noise_free[0]["world"]
+    page = eval_markdown(noise_free, ["dwa1", "dwa3"], [world], [0, 1], "none")
+    assert "runs the same episode at each of the 2 evaluation seeds" in page
+    assert "same episode" not in eval_markdown(noise_free, ["dwa1", "dwa3"], [world], [0], "none")
+    assert "same episode" not in eval_markdown(
+        noise_free, ["dwa1", "dwa3"], [world], [0, 1], "real"
+    )
 
 
 def test_worlds_given_by_generated_name_are_not_filed_as_shipped():
