@@ -20,6 +20,7 @@ import os
 import re
 import warnings
 from collections.abc import Callable, Sequence
+from typing import NoReturn
 
 from d3dwa_bullet.controllers import default_policy_path, refuse_policy
 from d3dwa_bullet.episode_config import EpisodeConfig
@@ -53,16 +54,22 @@ NEGATIVE_VALUE = re.compile(rf"^-{_NUMBER}(?:,\s*[-+]?{_NUMBER})*$", re.IGNORECA
 
 
 class CommandParser(argparse.ArgumentParser):
-    """An ArgumentParser that takes '-1,2,0' as an option's value, not as an option.
+    """An ArgumentParser that takes '-1,2,0' as an option's value, not as an option, and
+    reports a bad option in one line.
 
     argparse reads an argument starting with '-' as an option unless it looks like a
-    negative number, and a comma list is not one to it. Sub-parsers made with
+    negative number, and a comma list is not one to it. Its errors print the whole usage
+    before the line that names what was wrong; here that line alone is printed (README: any
+    bad input ends with one line, exit 2; ``--help`` has the usage). Sub-parsers made with
     ``add_subparsers().add_parser`` are of the same class.
     """
 
     def __init__(self, *args, **kwargs) -> None:
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = NEGATIVE_VALUE  # what argparse consults (private)
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (--help lists the options)\n")
 
 
 def parse_floats(text: str, n: int, what: str) -> tuple[float, ...]:

@@ -216,3 +216,20 @@ def test_replay_refuses_a_malformed_goal_with_one_line(tmp_path, capsys):
     assert main(args) == 2
     err = capsys.readouterr().err.strip()
     assert err == "d3dwa: error: --goal must be 2 comma-separated numbers, got '1'"
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["eval", "--workers", "abc"], "d3dwa eval: error: argument --workers: invalid int value"),
+        (["compare", "x", "--pair-by", "q"], "d3dwa compare: error: argument --pair-by"),
+        (["bogus"], "d3dwa: error: argument command: invalid choice: 'bogus'"),
+    ],
+)
+def test_an_option_argparse_refuses_is_one_line_without_the_usage(args, says, capsys):
+    with pytest.raises(SystemExit) as done:
+        main(args)
+    assert done.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith(says) and err.count("\n") == 1 and "usage:" not in err
+    assert err.rstrip().endswith("(--help lists the options)")
