@@ -13,7 +13,7 @@ from scipy import stats
 import d3dwa_bullet.cli.compare as compare
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.evaluation.floors import floor_records, floor_table
-from d3dwa_bullet.evaluation.paired import paired_scores, paired_test
+from d3dwa_bullet.evaluation.paired import paired_scores, paired_test, units_for_power
 
 LAYOUTS = [f"L{k}" for k in range(8)]
 A_GOALS = {  # (layout, evaluation seed) -> goals of A's three training seeds
@@ -130,3 +130,19 @@ def test_the_floor_table_says_which_floor_a_learned_method_cleared() -> None:
     late = [r for r in rows if not (r["method"] == "d3dwa" and r["world"] != "L0")]
     late = [r for r in late if r["method"] != "random@10" or r["world"] != "L0"]
     assert [r["floor"] for r in floor_records(late, ["d3dwa"])] == ["random"]  # no shared task
+
+
+def test_units_for_power_gives_the_power_it_names_in_simulation() -> None:
+    # differences with effect size 0.5: the formula asks for about 25 units; a one-sided
+    # t-test on that many draws rejects at 0.05 about 80 % of the time
+    rng = np.random.default_rng(0)
+    sample = rng.normal(0.5, 1.0, 4000)
+    n = units_for_power({("L", "none", i): (x, 0.0) for i, x in enumerate(sample)})
+    assert n == pytest.approx((1.6449 + 0.8416) ** 2 / 0.25, rel=0.1)
+    k = round(n)
+    draws = rng.normal(0.5, 1.0, (4000, k))
+    rejected = stats.ttest_1samp(draws, 0.0, axis=1, alternative="greater").pvalue < 0.05
+    assert rejected.mean() == pytest.approx(0.80, abs=0.03)
+    behind = {("L", "none", i): (0.0, x) for i, x in enumerate(sample[:10])}
+    assert units_for_power(behind) == float("inf")  # B ahead: no yardstick finds A > B
+    assert units_for_power({("L", "none", 0): (1.0, 0.0)}) is None

@@ -69,6 +69,10 @@ def test_the_switch_is_read_as_one_candidate_with_the_fixed_planner_in_every_see
     moonshot = records[-1]
     # d3dwa's seeds reach 50 % under none and real; DWA III's one run counts for both seeds
     assert moonshot["worst_per_seed"] == {0: 0.5, 1: 0.5} and not moonshot["met"]
+    floor = next(r for r in records if r["profile"] == "none" and "random@10" in r["target"])
+    # differences 1, 1, 1, 0, 0, 0: ((1.645 + 0.842) x 0.548 / 0.5)^2 = 7.4 -> 8 layouts
+    assert floor["units_for_power"] == pytest.approx(7.42, abs=0.01)
+    assert "80 % power needs 8 layouts" in floor["measured"]
     fixed = robust_targets.targets([out], "dwa3")[-1]
     assert fixed["worst_per_seed"] == {None: 1.0}
     assert robust_targets.main([str(out), "--switch", "none=d3dwa"]) == 2

@@ -14,7 +14,9 @@ only gathers them and reads each against the target the issue fixed (nothing is 
 P is the probability of improvement with its 95 % stratified bootstrap interval over training
 seeds; the paired p is the one-sided Wilcoxon signed-rank test paired by layout, as the issue
 asks (evaluation seeds pooled per layout; by (layout, evaluation seed) with ``--pair-by
-layout-seed``, docs/design.md#paired-test). Success is the mean over
+layout-seed``, docs/design.md#paired-test). Beside each paired p: how many layouts a test
+would need for 80 % power if the per-layout differences were what these layouts show
+(``paired.units_for_power``), a planning figure for the yardstick, not a test. Success is the mean over
 layouts of each training seed's success there.
 
     python -m tools.experiments.robust_targets runs/profiles3-nav2 --also runs/r3-nav2
@@ -28,6 +30,7 @@ bound, so a target it misses is one no policy can be expected to meet on these l
 from __future__ import annotations
 
 import json
+import math
 from collections import defaultdict
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -36,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from d3dwa_bullet.errors import ResultsError
-from d3dwa_bullet.evaluation.paired import paired_scores, paired_test
+from d3dwa_bullet.evaluation.paired import paired_scores, paired_test, units_for_power
 from d3dwa_bullet.evaluation.seed_tables import improvement
 from tools.entry import ToolParser, tool_main
 from tools.experiments.headroom import SWITCH, parse_switch, profile_rows, success
@@ -59,6 +62,11 @@ def _record(profile: str, target: str, measured: str, met: bool, **figures: Any)
     return {"profile": profile, "target": target, "measured": measured, "met": bool(met)} | figures
 
 
+def _count(n: float) -> str:
+    """A planning count: 'never' when A is not ahead, else rounded up to a whole unit."""
+    return "never (it is not ahead)" if n == float("inf") else f"{math.ceil(n)}"
+
+
 def _interval(p: Mapping[str, float]) -> str:
     return f"{p['p']:.2f} [{p['low']:.2f}, {p['high']:.2f}]"
 
@@ -67,7 +75,7 @@ def targets(
     sweeps: Sequence[Path],
     method: str,
     floor: str = "random@10",
-    by_seed: bool = True,
+    by_seed: bool = False,
     switch: Mapping[str, str] | None = None,
 ) -> list[dict[str, Any]]:
     """One record per target: profile, target, measured (text), met, and the figures. With
@@ -101,11 +109,14 @@ def targets(
             out.append(_record(profile, f"success >= {HARSH_SUCCESS:.0%}",
                                f"{s['success']:.1%} [{s['low']:.1%}, {s['high']:.1%}]",
                                s["success"] >= HARSH_SUCCESS, **s))  # fmt: skip
-        test = paired_test(paired_scores(here, method, floor, by_seed))
-        pv = test["p"]
+        scores = paired_scores(here, method, floor, by_seed)
+        test = paired_test(scores)
+        pv, need = test["p"], units_for_power(scores, ALPHA)
+        unit = "layouts" if not by_seed else "units"
+        power = "" if need is None else f"; 80 % power needs {_count(need)} {unit}"
         out.append(_record(profile, f"above {floor} (paired p < {ALPHA})",
-                           "n/a" if pv is None else f"p {pv:.3g} ({test['wins']} better / {test['losses']} worse)",
-                           pv is not None and pv < ALPHA, **test))  # fmt: skip
+                           "n/a" if pv is None else f"p {pv:.3g} ({test['wins']} better / {test['losses']} worse{power})",
+                           pv is not None and pv < ALPHA, **test, units_for_power=need))  # fmt: skip
     worst = _worst_profile_per_seed(
         {p: [r for r in rows[p] if r["method"] == method] for p in PROFILES}
     )
