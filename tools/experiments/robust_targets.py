@@ -16,8 +16,8 @@ seeds; the paired p is the one-sided Wilcoxon signed-rank test paired by layout,
 asks (evaluation seeds pooled per layout; by (layout, evaluation seed) with ``--pair-by
 layout-seed``, docs/design.md#paired-test). Beside each paired p: how many layouts a test
 would need for 80 % power if the per-layout differences were what these layouts show
-(``paired.units_for_power``), a planning figure for the yardstick, not a test. Success is the mean over
-layouts of each training seed's success there.
+(``paired.units_for_power``), a planning figure for the yardstick, not a test. Success is the
+mean over layouts of each training seed's success there.
 
     python -m tools.experiments.robust_targets runs/profiles3-nav2 --also runs/r3-nav2
     python -m tools.experiments.robust_targets runs/seeds3-nav2 --method d3dwa-history-dr
