@@ -22,7 +22,6 @@ is the logged action (1.0 unless the logs are not this policy's).
 from __future__ import annotations
 
 import json
-import sys
 from collections import Counter, defaultdict
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
@@ -30,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from d3dwa_bullet.errors import D3DWAError, ResultsError
+from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.jobs import row_log
 from d3dwa_bullet.evaluation.results import job_rows
 from d3dwa_bullet.method_specs import FIXED
@@ -171,13 +170,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--policy", type=Path, help="the seed folders of the one learned method")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
-    try:
-        reference = reference_tuple(args.tuple)
-        methods = [m for m in args.methods.split(",") if m]
-        records = spread(args.dir, methods, reference, args.policy)
-    except D3DWAError as exc:
-        print(f"action_spread: {exc}", file=sys.stderr)
-        return 2
+    reference = reference_tuple(args.tuple)
+    methods = [m for m in args.methods.split(",") if m]
+    records = spread(args.dir, methods, reference, args.policy)
     print(json.dumps(records, indent=1) if args.json else markdown(records, args.tuple), end="")
     return 0
 

@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from d3dwa_bullet.errors import D3DWAError, ResultsError
+from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.failures import MODES, SYMPTOMS, circling, classify, recoveries
 from d3dwa_bullet.evaluation.jobs import row_log
 from d3dwa_bullet.evaluation.results import job_rows, recovery_of
@@ -139,11 +139,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--figure", help="write the stacked-bar figure to this PNG")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    try:
-        records = failure_records(Path(args.dir))
-    except D3DWAError as err:
-        print(f"failure_modes: error: {err}", file=sys.stderr)
-        return 2
+    records = failure_records(Path(args.dir))
     found = list(dict.fromkeys(r["noise"] for r in records))
     noises = sorted(found, key=lambda n: PROFILES.index(n) if n in PROFILES else len(PROFILES))
     recovery = recovery_of(Path(args.dir))

@@ -25,13 +25,12 @@ expected to meet on these layouts.
 from __future__ import annotations
 
 import json
-import sys
 from collections import defaultdict
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from d3dwa_bullet.errors import D3DWAError, ResultsError
+from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.paired import paired_scores, paired_test
 from d3dwa_bullet.evaluation.results import job_rows
 from d3dwa_bullet.evaluation.seed_stats import mean_interval
@@ -111,6 +110,27 @@ def profile_rows(
     return by_profile, owner
 
 
+def played(
+    rows: Mapping[str, Sequence[Mapping[str, Any]]],
+    profile: str,
+    chosen: str,
+    where: str,
+    name: str = SWITCH,
+) -> list[dict[str, Any]]:
+    """The switch's rows under ``profile``: those of the method it plays there (``chosen``),
+    renamed ``name``; ResultsError naming ``where`` when that method has none."""
+    out = [{**r, "method": name} for r in rows.get(profile, []) if r["method"] == chosen]
+    if not out:
+        raise ResultsError(f"{where}: no rows of {chosen!r} under profile {profile!r}")
+    return out
+
+
+def improvement_p(rows: Sequence[Mapping[str, Any]], a: str, b: str) -> dict[str, float]:
+    """P(a > b) over every task both ran, with its 95 % interval: {"p", "low", "high"}."""
+    p = improvement(rows, a, b, lambda r: ())[-1]
+    return {"p": p["p"], "low": p["low"], "high": p["high"]}
+
+
 def paired(
     sweeps: Sequence[Path], switch: Mapping[str, str], by_seed: bool = True
 ) -> list[dict[str, Any]]:
@@ -121,15 +141,14 @@ def paired(
     rows, owner = profile_rows(sweeps)
     records: list[dict[str, Any]] = []
     for profile, chosen in switch.items():
-        played = [{**r, "method": SWITCH} for r in rows.get(profile, []) if r["method"] == chosen]
-        if not played or owner[chosen] != 0:
+        switched = played(rows, profile, chosen, str(sweeps[0]))
+        if owner[chosen] != 0:
             raise ResultsError(f"{sweeps[0]}: no rows of {chosen!r} under profile {profile!r}")
         for method in dict.fromkeys(r["method"] for r in rows[profile]):
-            both = played + [r for r in rows[profile] if r["method"] == method]
-            p = improvement(both, SWITCH, method, lambda r: ())[-1]
+            both = switched + [r for r in rows[profile] if r["method"] == method]
             test = paired_test(paired_scores(both, SWITCH, method, by_seed))
-            records.append({"profile": profile, "switch": chosen, "method": method,
-                            "p": p["p"], "low": p["low"], "high": p["high"]}
+            records.append({"profile": profile, "switch": chosen, "method": method}
+                           | improvement_p(both, SWITCH, method)
                            | {f"paired_{k}": v for k, v in test.items()})  # fmt: skip
     return records
 
@@ -197,17 +216,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--also needs --paired")
     if args.pair_by and not args.paired:
         parser.error("--pair-by needs --paired")
-    try:
-        if args.paired:
-            by_seed = args.pair_by != "layout"
-            records = paired([args.sweep, *args.also], parse_switch(args.switch), by_seed)
-            text = paired_markdown(records)
-        else:
-            records = headroom(args.sweep, parse_switch(args.switch))
-            text = markdown(records)
-    except D3DWAError as exc:
-        print(f"headroom: {exc}", file=sys.stderr)
-        return 2
+    if args.paired:
+        by_seed = args.pair_by != "layout"
+        records = paired([args.sweep, *args.also], parse_switch(args.switch), by_seed)
+        text = paired_markdown(records)
+    else:
+        records = headroom(args.sweep, parse_switch(args.switch))
+        text = markdown(records)
     print(json.dumps(records, indent=1) if args.json else text, end="")
     return 0
 

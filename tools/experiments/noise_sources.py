@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import copy
 import json
-import sys
 from collections import Counter, defaultdict
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -27,7 +26,7 @@ from typing import Any
 
 import yaml
 
-from d3dwa_bullet.errors import D3DWAError, ResultsError
+from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.failures import classify
 from d3dwa_bullet.evaluation.jobs import row_log
 from d3dwa_bullet.evaluation.results import job_rows
@@ -160,17 +159,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     t.add_argument("--base", default="harsh")
     t.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
-    try:
-        if args.command == "write":
-            for path in write(args.base, args.off, args.out):
-                print(path)
-            return 0
-        recs = records(args.sweep)
-        print(json.dumps(recs, indent=1) if args.json else markdown(recs, args.base), end="")
+    if args.command == "write":
+        for path in write(args.base, args.off, args.out):
+            print(path)
         return 0
-    except D3DWAError as exc:
-        print(f"noise_sources: {exc}", file=sys.stderr)
-        return 2
+    recs = records(args.sweep)
+    print(json.dumps(recs, indent=1) if args.json else markdown(recs, args.base), end="")
+    return 0
 
 
 if __name__ == "__main__":

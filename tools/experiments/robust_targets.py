@@ -40,9 +40,15 @@ import numpy as np
 
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.paired import paired_scores, paired_test, units_for_power
-from d3dwa_bullet.evaluation.seed_tables import improvement
 from tools.entry import ToolParser, tool_main
-from tools.experiments.headroom import SWITCH, parse_switch, profile_rows, success
+from tools.experiments.headroom import (
+    SWITCH,
+    improvement_p,
+    parse_switch,
+    played,
+    profile_rows,
+    success,
+)
 
 Rows = Sequence[Mapping[str, Any]]
 PROFILES = ("none", "real", "harsh")
@@ -51,11 +57,6 @@ NOT_BELOW = {"none": ("d3dwa",), "real": ("dwa3", "d3dwa"), "harsh": ("dwa3",)}
 HARSH_SUCCESS = 0.88
 MOONSHOT = 0.90
 ALPHA = 0.05
-
-
-def _p(rows: Rows, a: str, b: str) -> dict[str, float]:
-    p = improvement(rows, a, b, lambda r: ())[-1]
-    return {"p": p["p"], "low": p["low"], "high": p["high"]}
 
 
 def _record(profile: str, target: str, measured: str, met: bool, **figures: Any) -> dict[str, Any]:
@@ -83,10 +84,7 @@ def targets(
     ``method``."""
     rows, _ = profile_rows(sweeps)
     for profile, chosen in (switch or {}).items():
-        played = [{**r, "method": method} for r in rows.get(profile, []) if r["method"] == chosen]
-        if not played:
-            raise ResultsError(f"--switch: no rows of {chosen!r} under profile {profile!r}")
-        rows[profile] = [*rows[profile], *played]
+        rows[profile] = [*rows[profile], *played(rows, profile, chosen, "--switch", method)]
     for profile in PROFILES:
         present = {r["method"] for r in rows.get(profile, [])}
         for m in (method, *NOT_BELOW[profile], "d3dwa", floor):
@@ -97,11 +95,11 @@ def targets(
     for profile in PROFILES:
         here = rows[profile]
         if profile == "harsh":
-            p = _p(here, method, "d3dwa")
+            p = improvement_p(here, method, "d3dwa")
             out.append(_record(profile, "beats d3dwa (P lower end > 0.5)", _interval(p),
                                p["low"] > 0.5, **p))  # fmt: skip
         for other in NOT_BELOW[profile]:
-            p = _p(here, method, other)
+            p = improvement_p(here, method, other)
             out.append(_record(profile, f"not below {other} (P upper end >= 0.5)", _interval(p),
                                p["high"] >= 0.5, **p))  # fmt: skip
         if profile == "harsh":
