@@ -60,6 +60,9 @@ class World:
     time_limit: float | None = None
     source: str = "<memory>"
     """Where the world came from (a path, or a generator description)."""
+    reference_length: float | None = None
+    """Length of the task's published reference path, m (BARN's path files), or None: the
+    episode score then takes the shortest collision-free route for the robot's footprint."""
 
     def with_task(
         self,
