@@ -19,27 +19,34 @@ _PACKAGES = {
     "policies": "d3dwa_bullet.data.policies",
     "configs": "d3dwa_bullet.data.configs",
 }
+_FOLDERS = {"barn": "d3dwa_bullet.data"}
+"""Data folders that are plain folders inside a package: name -> package."""
 _REINSTALL = "reinstall with `pip install --force-reinstall d3dwa-bullet` (or `pip install .` from a checkout)"
 
 
 def data_dir(name: str) -> Path:
-    """The folder of shipped data ``name`` (worlds, urdf, policies, configs, profiles).
+    """The folder of shipped data ``name`` (worlds, urdf, policies, configs, profiles, barn).
 
     Raises InstallError, naming the folder and how to reinstall, when the install lacks it.
     """
-    # randomization/profiles/ sits beside the module randomization/profiles.py, so it is a
-    # folder of the randomization package rather than a package of its own.
-    package = _PACKAGES.get(name, "randomization")
+    # randomization/profiles/ sits beside the module randomization/profiles.py, and barn/ is
+    # a plain folder of d3dwa_bullet.data, so each is a folder of a package, not a package.
+    package = _PACKAGES.get(name, _FOLDERS.get(name, "randomization"))
     try:
         root = importlib.resources.files(package)
-        if name == "profiles":
-            root = root / "profiles"
+        if name in ("profiles", "barn"):
+            root = root / name
     except ModuleNotFoundError as err:
         raise InstallError(f"the install has no {name}/ data ({package}); {_REINSTALL}") from err
     path = Path(str(root))
     if not path.is_dir():
         raise InstallError(f"the install has no {name}/ data (looked in {path}); {_REINSTALL}")
     return path
+
+
+def barn_dir() -> Path:
+    """BARN's grids, reference paths, manifest and licence (``d3dwa_bullet/data/barn/``)."""
+    return data_dir("barn")
 
 
 def worlds_dir() -> Path:

@@ -62,7 +62,7 @@ def test_every_shipped_data_file_is_matched_by_package_data(package):
     assert missed == []
 
 
-@pytest.mark.parametrize("name", ["worlds", "urdf", "policies", "configs", "profiles"])
+@pytest.mark.parametrize("name", ["worlds", "urdf", "policies", "configs", "profiles", "barn"])
 def test_data_folders_resolve_through_importlib_resources(name):
     path = resources.data_dir(name)
     assert path.is_dir() and any(path.iterdir())

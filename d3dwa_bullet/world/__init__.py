@@ -5,6 +5,7 @@ never through this ``__init__``, which only re-exports the public names for call
 (``route_start`` is not re-exported: its function would hide the module of that name.)
 """
 
+from d3dwa_bullet.world.barn import barn_split, barn_split_ids, barn_world
 from d3dwa_bullet.world.gaps import Passage, gap_between, passages
 from d3dwa_bullet.world.generator import (
     UNSEEN_LAYOUT_SEED_BASE,
@@ -48,6 +49,9 @@ __all__ = [
     "Passage",
     "ShortestPath",
     "World",
+    "barn_split",
+    "barn_split_ids",
+    "barn_world",
     "clearance_field",
     "footprint_reachable",
     "gap_between",

@@ -31,13 +31,15 @@ import numpy as np
 
 from d3dwa_bullet.errors import WorldFormatError
 from d3dwa_bullet.loading import load_yaml
+from d3dwa_bullet.world.barn import SPLIT_GROUPS as BARN_GROUPS
 from d3dwa_bullet.world.fields import positive, required, vector
 from d3dwa_bullet.world.model import DEFAULT_HEIGHT, Box, Cylinder, Obstacle, World, validate_task
 
 GROUPS = ("train", "unseen", "real", "custom")
 """World groups, in the order listings and tables print them."""
-EVAL_ONLY_GROUPS = ("unseen", "real")
-"""Groups for evaluation only: training never runs on their worlds."""
+EVAL_ONLY_GROUPS = ("unseen", "real", BARN_GROUPS["challenge"])
+"""Groups for evaluation only: training never runs on their worlds (BARN's challenge split
+included)."""
 WORLD_KEYS = {"name", "group", "order", "description", "start", "goal", "time_limit", "obstacles"}
 OBSTACLE_KEYS = {
     "box": {"type", "center", "size", "yaw", "height"},

@@ -21,6 +21,7 @@ from typing import Any
 
 from d3dwa_bullet.errors import UnknownNameError, WorldFormatError
 from d3dwa_bullet.resources import worlds_dir
+from d3dwa_bullet.world.barn import barn_world_from_name
 from d3dwa_bullet.world.generator import generated_world_from_name
 from d3dwa_bullet.world.map_server import load_map_world
 from d3dwa_bullet.world.model import World
@@ -115,8 +116,8 @@ def list_worlds() -> list[World]:
 
 
 def load_world(name_or_path: str | Path) -> World:
-    """A shipped world by name (case-insensitive), a generated layout by name (such as
-    R2-style-s17) or any world file by path."""
+    """A shipped world by name (case-insensitive), a BARN world by name (BARN-17), a
+    generated layout by name (such as R2-style-s17) or any world file by path."""
     text = str(name_or_path)
     paths = world_paths()
     by_upper = {n.upper(): p for n, p in paths.items()}
@@ -124,10 +125,13 @@ def load_world(name_or_path: str | Path) -> World:
         return load_world_file(by_upper[text.upper()])
     if Path(text).suffix:
         return load_world_file(text)
+    barn = barn_world_from_name(text)
+    if barn is not None:
+        return barn
     generated = generated_world_from_name(text)
     if generated is not None:
         return generated
     raise UnknownNameError(
-        f"unknown world {text!r}: choose one of {', '.join(paths)}, a generated layout such as "
-        "R2-style-s17, or a path to a world file"
+        f"unknown world {text!r}: choose one of {', '.join(paths)}, a BARN world such as "
+        "BARN-17, a generated layout such as R2-style-s17, or a path to a world file"
     )
