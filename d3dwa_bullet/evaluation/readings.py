@@ -134,6 +134,34 @@ def reading_of(scores: Mapping[Unit, tuple[float, float]], margin: float) -> dic
     }
 
 
+def plan_of(
+    scores: Mapping[Unit, tuple[float, float]], margin: float, alpha: float = ALPHA
+) -> dict[str, Any]:
+    """A power plan from a pilot's paired scores ({layout unit: (A, B)}): {"layouts" (in the
+    pilot), "difference", "sd", "needed_difference", "needed_equivalence" (layouts for 80 %
+    power, rounded up; None for never), "needed" (the fewer), "aim" (the reading the plan
+    aims at: 'A better', 'B better' or 'equivalent'; None when no plan can be made), "why"}.
+    The observed mean and sd are taken as the truth: a planning figure, not a test."""
+    pairs = np.array(list(scores.values()), dtype=float).reshape(-1, 2)
+    d = pairs[:, 0] - pairs[:, 1]
+    out: dict[str, Any] = {"layouts": int(d.size), "margin": margin, "difference": None,
+                           "sd": None, "needed_difference": None, "needed_equivalence": None,
+                           "needed": None, "aim": None, "why": None}  # fmt: skip
+    if d.size and not np.isfinite(d).all():
+        out["why"] = f"no plan: {int((~np.isfinite(d)).sum())} of {d.size} layouts have no value"
+        return out
+    if d.size < MIN_LAYOUTS:
+        out["why"] = f"no plan: a pilot needs {MIN_LAYOUTS} layouts or more to show a spread"
+        return out
+    mean, sd = float(d.mean()), float(d.std(ddof=1))
+    diff = layouts_for_difference(mean, sd, alpha / 2, POWER)
+    equiv = layouts_for_equivalence(mean, sd, margin, alpha, POWER)
+    aim = "equivalent" if equiv <= diff else ("A better" if mean > 0 else "B better")
+    return out | {"difference": mean, "sd": sd, "needed_difference": _whole(diff),
+                  "needed_equivalence": _whole(equiv), "needed": _whole(min(diff, equiv)),
+                  "aim": aim}  # fmt: skip
+
+
 def missing_metric(rows: Sequence[Row], metric: str) -> int:
     """How many rows have no value of metric (results from before the score)."""
     return sum(metric_value(r, metric) is None for r in rows)
