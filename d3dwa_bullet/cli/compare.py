@@ -11,8 +11,16 @@ every layout under each noise, then all tasks.
 Beside each P(A > B), a test paired by layout: the one-sided Wilcoxon signed-rank p-value of
 A > B over the (layout, noise, evaluation seed) both ran, each side's success there averaged
 over its training seeds (:mod:`d3dwa_bullet.evaluation.paired`, docs/design.md#paired-test).
-Two methods sharing fewer than two layouts are refused in one line. ``--methods A`` alone, A
-a learned method, compares A with both its floors present in DIR (every step and held).
+``--methods A`` alone, A a learned method, compares A with both its floors present in DIR
+(every step and held).
+
+Then the readings (:mod:`d3dwa_bullet.evaluation.readings`, docs/design.md#readings): paired by
+layout (each side averaged over its training and evaluation seeds there), per group and
+overall, for success, the score and BARN's official score, the mean difference with its 95 %
+interval, the one-sided paired t-tests, TOST against the margins (``--margin-success`` in
+points, ``--margin-score``, ``--margin-barn``), and one reading of four. Results from before the
+score read on success alone. Two methods that share one layout get everything else and a line
+saying why the paired test and the readings are absent; sharing no layout is refused.
 
 ``--against DIR2`` takes B's runs from a second directory: the same method with and without
 the recovery layer (``d3dwa compare rec --against norec --methods dwa3,dwa3``), whose runs
@@ -28,6 +36,13 @@ from typing import Any
 
 from d3dwa_bullet.cli.output import json_text
 from d3dwa_bullet.errors import ConfigError, ResultsError
+from d3dwa_bullet.evaluation.margins import (
+    MARGIN_OPTIONS,
+    MARGINS,
+    METRIC_NAMES,
+    check_margin,
+    option_value,
+)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -54,8 +69,28 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="unit of the paired test: (layout, evaluation seed), the default, or the layout "
         "with each side averaged over its evaluation seeds (fewer units, not sharing a layout)",
     )
+    for metric, option in MARGIN_OPTIONS.items():
+        points = metric == "success"
+        p.add_argument(
+            option,
+            type=float,
+            default=option_value(metric, MARGINS[metric]),
+            metavar="POINTS" if points else "DELTA",
+            help=f"equivalence margin of the {METRIC_NAMES[metric]}"
+            + (" in success points" if points else "")
+            + ", stated before the run (default %(default)g; docs/design.md#readings)",
+        )
     p.add_argument("--json", action="store_true", help="print the records as JSON")
     p.set_defaults(func=cmd_compare)
+
+
+def margins_of(args: argparse.Namespace) -> dict[str, float]:
+    """The margins of the readings, each in its metric's units (success as a fraction), checked
+    (ConfigError naming the option) before anything is read."""
+    return {
+        metric: check_margin(getattr(args, option[2:].replace("-", "_")), metric)
+        for metric, option in MARGIN_OPTIONS.items()
+    }
 
 
 def _groups_of(row: dict[str, Any], shipped: dict[str, str]) -> list[str]:
@@ -92,6 +127,7 @@ def _side(out: Path, method: str, warn: bool = True) -> tuple[list[dict[str, Any
 def cmd_compare(args: argparse.Namespace) -> int:
     from d3dwa_bullet.method_specs import check_method, floors_of, method_family
 
+    args.margins = margins_of(args)
     names = [m.strip() for m in args.methods.split(",") if m.strip()]
     if len(names) == 1 and not args.against and method_family(check_method(names[0])) == "learned":
         out = Path(args.dir)
@@ -125,6 +161,22 @@ def job_rows_of(out: Path) -> list[dict[str, Any]]:
     return job_rows(out)
 
 
+def score_forms(out: Path, other: Path) -> str | None:
+    """The score form (meta.json settings "score_form") both directories share; None when
+    neither names one (results from before the score). ResultsError naming both forms when
+    they differ: a comparison never mixes two forms of the score."""
+    # start-up cost: SciPy's bootstrap (~0.5 s); no simulator, no torch
+    from d3dwa_bullet.evaluation.results import read_meta
+
+    forms = [read_meta(d).get("settings", {}).get("score_form") for d in (out, other)]
+    if None not in forms and forms[0] != forms[1]:
+        raise ResultsError(
+            f"{out / 'meta.json'} has score form {forms[0]!r}, {other / 'meta.json'} has "
+            f"{forms[1]!r}: compare runs of one score form"
+        )
+    return forms[0] if forms[0] is not None else forms[1]
+
+
 def _compare(args: argparse.Namespace, a: str, b: str) -> None:
     # start-up cost: SciPy (~0.5 s), only for this command
     from d3dwa_bullet.evaluation.paired import (
@@ -133,7 +185,8 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
         paired_scores,
         unit_of,
     )
-    from d3dwa_bullet.evaluation.seed_tables import improvement, improvement_table
+    from d3dwa_bullet.evaluation.readings import readings_by_group
+    from d3dwa_bullet.evaluation.seed_tables import improvement
     from d3dwa_bullet.method_specs import method_label
     from d3dwa_bullet.world.registry import world_groups
 
@@ -142,6 +195,7 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
     other = Path(args.against) if args.against else out
     rows_a, rec_a, complete_a = _side(out, a)
     rows_b, rec_b, complete_b = _side(other, b, warn=other != out)
+    form = score_forms(out, other)
     # one method on both sides: its runs are told apart by their directory's recovery
     key_a, key_b = (f"{a} [A]", f"{b} [B]") if same else (a, b)
     labels = {
@@ -153,33 +207,67 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
         labels[key_b] += f" ({other})"
     rows = [r | {"method": key_a} for r in rows_a] + [r | {"method": key_b} for r in rows_b]
     source = f"{out / 'results.csv'}" + (f" and {other / 'results.csv'}" if args.against else "")
-    check_layouts(paired_scores(rows, key_a, key_b), a, b, source)
+    absent = check_layouts(paired_scores(rows, key_a, key_b), a, b, source)
     shipped = world_groups()
     records = improvement(rows, key_a, key_b, lambda r: _groups_of(r, shipped))
     by_seed = args.pair_by == "layout-seed"
-    group_of = {unit_of(r, by_seed): _groups_of(r, shipped) for r in rows}
-    paired = paired_by_group(rows, key_a, key_b, group_of, by_seed)
-    for record in records:
-        test = paired.get(record["group"], {})
-        record |= {f"paired_{k}": v for k, v in test.items()}
+    if absent is None:
+        group_of = {unit_of(r, by_seed): _groups_of(r, shipped) for r in rows}
+        paired = paired_by_group(rows, key_a, key_b, group_of, by_seed)
+        layout_groups = {unit_of(r, False): _groups_of(r, shipped) for r in rows}
+        readings = readings_by_group(rows, key_a, key_b, layout_groups, args.margins)
+        for record in records:
+            test = paired.get(record["group"], {})
+            record |= {f"paired_{k}": v for k, v in test.items()}
+            record["readings"] = readings.get(record["group"], {})
     if args.json:
         print(json_text({"results": str(out), "against": str(other), "a": a, "b": b,
                           "recovery_a": rec_a, "recovery_b": rec_b, "pair_by": args.pair_by,
+                          "score_form": form, "margins": args.margins, "no_paired_test": absent,
                           "complete": complete_a and complete_b, "groups": records}))  # fmt: skip
         return
-    la, lb = labels[key_a], labels[key_b]
+    sides = {key_a: (a, labels[key_a]), key_b: (b, labels[key_b])}
+    _print(args, rows, records, sides, source, absent)
+
+
+def _print(
+    args: argparse.Namespace,
+    rows: list[dict[str, Any]],
+    records: list[dict[str, Any]],
+    sides: dict[str, tuple[str, str]],
+    source: str,
+    absent: str | None,
+) -> None:
+    """The tables of :func:`_compare`: P(A > B) with the Wilcoxon test beside it, then the
+    readings; with one shared layout, P(A > B), the success and time tables, and why no
+    paired test is given."""
+    from d3dwa_bullet.evaluation.readings import NO_SCORE, readings_table
+    from d3dwa_bullet.evaluation.seed_tables import improvement_table, seed_tables
+
+    (key_a, (_, la)), (key_b, (_, lb)) = sides.items()
+    labels = {k: label for k, (_, label) in sides.items()}
+    by_seed = args.pair_by == "layout-seed"
     unit, pooled = (
         ("(layout, noise, evaluation seed)", "training seeds")
         if by_seed
         else ("(layout, noise)", "training and evaluation seeds")
     )
+    paired = (
+        ""
+        if absent
+        else f" Paired by {unit}, each side's success averaged over its {pooled}: A better / "
+        "worse in how many pairs, and the one-sided Wilcoxon signed-rank p-value of A > B."
+    )
     print(
         f"P({la} > {lb}) on success per task (world, noise); 95 % stratified bootstrap "
-        f"over runs; 0.5 = no difference. Paired by {unit}, each side's success averaged "
-        f"over its {pooled}: A better / worse in how many pairs, and the one-sided Wilcoxon "
-        f"signed-rank p-value of A > B. From {source}.\n"
+        f"over runs; 0.5 = no difference.{paired} From {source}.\n"
     )
     print(improvement_table(records, key_a, key_b, labels), end="")
+    if absent:
+        worlds = sorted({r["world"] for r in rows})
+        print("\n" + seed_tables(rows, [key_a, key_b], worlds, sides), end="")
+        print(f"\n{absent}")
+        return
     seeds = {int(r["seed"]) for r in rows}
     if by_seed and len(seeds) > 1:
         print(
@@ -187,3 +275,17 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
             "independent (without noise a fixed or greedy method repeats its episode at every "
             "seed): `--pair-by layout` is the conservative test (docs/design.md#paired-test)."
         )
+    print(
+        f"\nReadings, A = {la}, B = {lb}: paired by layout (each side averaged over its "
+        "training and evaluation seeds there); A - B with its 95 % t interval (success in "
+        "points), the smaller one-sided paired t p-value, TOST's p against the margin; a "
+        "difference reads at p < 0.025 each way, equivalence at TOST p < 0.05 "
+        "(docs/design.md#readings).\n"
+    )
+    readings = {r["group"]: r["readings"] for r in records}
+    lacking = [m for m, r in readings["all"].items() if r.get("why") == NO_SCORE]
+    shown = {g: {m: r for m, r in per.items() if m not in lacking} for g, per in readings.items()}
+    print(readings_table(shown), end="")
+    if lacking:
+        names = " and ".join(METRIC_NAMES[m] for m in lacking)
+        print(f"\n{names}: {NO_SCORE}; success reads alone.")

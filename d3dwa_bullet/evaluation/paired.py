@@ -12,6 +12,11 @@ conservative test. The differences A - B over the units go
 to the Wilcoxon signed-rank test (``scipy.stats.wilcoxon``, one-sided: A > B; units where the
 two agree are dropped, ``zero_method="wilcox"``). A p-value below 0.05 says A's success is
 higher on these layouts than chance pairing would give (docs/design.md#paired-test).
+
+The scores may be any per-episode metric of :data:`METRICS` (success, the score, BARN's
+official score): :mod:`d3dwa_bullet.evaluation.readings` reads their mean difference as one of
+four answers, and the power figures here (:func:`layouts_for_difference`,
+:func:`layouts_for_equivalence`) say how many units would decide it.
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from scipy import stats
+from scipy import optimize, stats
 
 from d3dwa_bullet.errors import ResultsError
 
@@ -30,6 +35,20 @@ Unit = tuple[str, str, int | None]
 """(layout, noise, evaluation seed); the seed None when the unit pools every evaluation seed."""
 MIN_LAYOUTS = 2
 """Layouts two methods must share for a paired test: one layout is a single pair of scores."""
+METRICS = ("success", "score", "score_barn")
+"""Per-episode metrics a test pairs: success (1 at the goal, else 0), the score scaled to the
+robot and BARN's official score (both in [0, 1], 0 for a failure; None in rows of results
+from before the score)."""
+
+
+def metric_value(row: Row, metric: str) -> float | None:
+    """A row's value of metric (one of :data:`METRICS`): None where the row has no score."""
+    if metric == "success":
+        return float(row["outcome"] == "goal")
+    if metric not in METRICS:
+        raise ValueError(f"unknown metric {metric!r} (one of {', '.join(METRICS)})")
+    value = row.get(metric)
+    return None if value is None or value == "" else float(value)
 
 
 def unit_of(row: Row, by_seed: bool = True) -> Unit:
@@ -38,14 +57,16 @@ def unit_of(row: Row, by_seed: bool = True) -> Unit:
 
 
 def paired_scores(
-    rows: Sequence[Row], a: str, b: str, by_seed: bool = True
+    rows: Sequence[Row], a: str, b: str, by_seed: bool = True, metric: str = "success"
 ) -> dict[Unit, tuple[float, float]]:
-    """{unit: (A's success, B's success)} over the units both methods ran, each side's success
-    averaged over its training seeds there (and over its evaluation seeds unless by_seed)."""
-    seen: dict[Unit, dict[str, list[bool]]] = defaultdict(lambda: defaultdict(list))
+    """{unit: (A's metric, B's metric)} over the units both methods ran, each side's value
+    averaged over its training seeds there (and over its evaluation seeds unless by_seed).
+    A side with a row lacking the metric (None) is NaN there: never averaged over fewer."""
+    seen: dict[Unit, dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
     for r in rows:
         if r["method"] in (a, b):
-            seen[unit_of(r, by_seed)][r["method"]].append(r["outcome"] == "goal")
+            value = metric_value(r, metric)
+            seen[unit_of(r, by_seed)][r["method"]].append(np.nan if value is None else value)
     return {
         u: (float(np.mean(per[a])), float(np.mean(per[b])))
         for u, per in sorted(seen.items(), key=lambda kv: (kv[0][0], kv[0][1], kv[0][2] or 0))
@@ -53,16 +74,18 @@ def paired_scores(
     }
 
 
-def check_layouts(scores: Mapping[Unit, Any], a: str, b: str, where: str) -> None:
-    """ResultsError (one line) unless the methods share MIN_LAYOUTS layouts or more."""
+def check_layouts(scores: Mapping[Unit, Any], a: str, b: str, where: str) -> str | None:
+    """ResultsError (one line) when the methods share no layout; with one shared layout, the
+    line that says why no paired test is given (None with MIN_LAYOUTS layouts or more)."""
     layouts = sorted({u[0] for u in scores})
     if not layouts:
         raise ResultsError(f"{where}: methods {a!r} and {b!r} share no layout: nothing to pair")
     if len(layouts) < MIN_LAYOUTS:
-        raise ResultsError(
-            f"{where}: methods {a!r} and {b!r} share only one layout ({layouts[0]}); a test "
-            f"paired by layout needs {MIN_LAYOUTS} or more"
+        return (
+            f"No paired test: methods {a!r} and {b!r} share only one layout ({layouts[0]}); a "
+            f"test paired by layout needs {MIN_LAYOUTS} or more."
         )
+    return None
 
 
 def paired_test(scores: Mapping[Unit, tuple[float, float]]) -> dict[str, Any]:
@@ -117,5 +140,49 @@ def units_for_power(
         return float("inf")
     if sd == 0:
         return None
+    return layouts_for_difference(mean, sd, alpha, power)
+
+
+def layouts_for_difference(mean: float, sd: float, alpha: float, power: float = 0.8) -> float:
+    """Units a one-sided paired test at ``alpha``, in the direction of ``mean``, needs to find
+    the difference with probability ``power`` if the per-unit differences had this mean and
+    sd (any metric, its own units): ((z_alpha + z_power) sd / |mean|)^2, the normal
+    approximation. inf for a zero mean; 0 for no spread (every unit already decides)."""
+    if mean == 0:
+        return float("inf")
     z = stats.norm.ppf(1 - alpha) + stats.norm.ppf(power)
-    return float((z * sd / mean) ** 2)
+    return float((z * sd / abs(mean)) ** 2)
+
+
+def equivalence_power(n: float, mean: float, sd: float, margin: float, alpha: float) -> float:
+    """The probability that a TOST at ``alpha`` against +-margin finds equivalence on n units
+    whose differences have this mean and sd, by the normal approximation:
+    Phi(sqrt(n) (margin - mean) / sd - z) + Phi(sqrt(n) (margin + mean) / sd - z) - 1, z the
+    one-sided quantile of alpha (at least 0)."""
+    z, root = stats.norm.ppf(1 - alpha), np.sqrt(n) / sd
+    upper = stats.norm.cdf(root * (margin - mean) - z)
+    lower = stats.norm.cdf(root * (margin + mean) - z)
+    return float(max(upper + lower - 1.0, 0.0))
+
+
+def layouts_for_equivalence(
+    mean: float, sd: float, margin: float, alpha: float, power: float = 0.8
+) -> float:
+    """Units a TOST at ``alpha`` against +-margin needs to find equivalence with probability
+    ``power`` if the per-unit differences had this mean and sd (:func:`equivalence_power`
+    solved for n; a real number, round up). inf when |mean| >= margin (no yardstick shows
+    equivalence then); 0 for no spread inside the margin."""
+    if abs(mean) >= margin:
+        return float("inf")
+    if sd == 0:
+        return 0.0
+    # one side alone needs this many; the other side's shortfall only adds to it
+    n = ((stats.norm.ppf(1 - alpha) + stats.norm.ppf(power)) * sd / (margin - abs(mean))) ** 2
+    high = 2.0 * n + 2.0
+    while equivalence_power(high, mean, sd, margin, alpha) < power:
+        high *= 2.0
+    return float(
+        optimize.brentq(
+            lambda k: equivalence_power(k, mean, sd, margin, alpha) - power, n, high, xtol=1e-6
+        )
+    )

@@ -108,6 +108,7 @@ def _time_interval(scores: list[list[float]]) -> Interval | None:
 
 
 def _runs_label(method: str, rows: Sequence[Row]) -> str:
+    """method: the method's name (not a key such as 'dwa3 [A]')."""
     seeds, n = _n_runs(rows)
     episodes = f"{n} episode{'s' * (n != 1)}"
     if seeds:
@@ -116,11 +117,19 @@ def _runs_label(method: str, rows: Sequence[Row]) -> str:
     return f"{kind}, {episodes}"
 
 
-def seed_tables(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence[str]) -> str:
+def seed_tables(
+    rows: Sequence[Row],
+    methods: Sequence[str],
+    worlds: Sequence[str],
+    sides: Mapping[str, tuple[str, str]] | None = None,
+) -> str:
     """Success rate and time per (method, world) over runs, with 95 % intervals, as Markdown:
     one table of success rates (%), one of IQM times (s); an "all" column aggregates the
-    worlds (mean success over worlds, IQM of time over every run and world)."""
+    worlds (mean success over worlds, IQM of time over every run and world). sides: for a
+    row's method that is a key, not a method (one method on both sides of a comparison),
+    the (method, label) it stands for."""
     cells = _cells(rows)
+    named = {m: (m, method_label(m)) for m in methods} | dict(sides or {})
     header = "| Method | runs | " + " | ".join(worlds) + " | all |"
     sep = "|---|---|" + "---:|" * (len(worlds) + 1)
     success, timing = [header, sep], [header, sep]
@@ -140,7 +149,7 @@ def seed_tables(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence[st
             t_all.append(t)
             s_cells.append(_rate(mean_interval([s])))
             t_cells.append(_time(_time_interval([t])))
-        label = f"| {method_label(m)} | {_runs_label(m, mine)} | "
+        label = f"| {named[m][1]} | {_runs_label(named[m][0], mine)} | "
         success.append(label + " | ".join(s_cells) + f" | {_rate(mean_interval(s_all))} |")
         timing.append(label + " | ".join(t_cells) + f" | {_time(_time_interval(t_all))} |")
     return (

@@ -89,9 +89,10 @@ def test_a_results_directory_holds_one_recovery_setting(capsys, tmp_path, one_se
     )
     assert "recovery.window 10.0 there, 5.0 here" in line
 
-    line = refused(capsys, "compare", rec, "--against", paper, "--methods", "dwa3,dwa3")
-    assert f"{rec / 'results.csv'} and {paper / 'results.csv'}" in line
-    assert "share only one layout" in line  # one world: no paired test, no NaN p-value
+    code, out, _ = run(capsys, "compare", rec, "--against", paper, "--methods", "dwa3,dwa3")
+    assert code == 0 and f"{rec / 'results.csv'} and {paper / 'results.csv'}" in out
+    assert "share only one layout" in out  # one world: no paired test, no NaN p-value
+    assert "| DWA III (2,1,1) + recovery nav2 |" in out
     assert "two different methods" in refused(capsys, "compare", rec, "--methods", "dwa3,dwa3")
 
 

@@ -1,6 +1,7 @@
 """The test paired by layout that `d3dwa compare` prints beside P(A > B): its p-value is
 scipy.stats.wilcoxon's on the per-(layout, seed) success differences, each side averaged over
-its training seeds; fewer than two shared layouts are refused in one line, never a NaN."""
+its training seeds; no shared layout is refused in one line, one gets a line saying why
+there is no test, never a NaN."""
 
 from __future__ import annotations
 
@@ -95,21 +96,27 @@ def test_pairing_by_layout_pools_the_evaluation_seeds(monkeypatch, capsys) -> No
     assert "evaluation seeds share each layout" not in printed
 
 
-@pytest.mark.parametrize(
-    ("layouts", "says"),
-    [(["L0"], "share only one layout (L0)"), ([], "share no layout: nothing to pair")],
-)
-def test_fewer_than_two_shared_layouts_is_one_line(layouts, says, monkeypatch, capsys) -> None:
-    rows = [r for r in constructed() if r["method"] == "d3dwa" or r["world"] in layouts]
-    rows = [r for r in rows if r["method"] == "dwa1" or r["world"] in (layouts or ["L1"])]
-    monkeypatch.setattr(
-        compare,
-        "_side",
-        lambda out, m, warn=True: ([r for r in rows if r["method"] == m], "none", True),
-    )
-    assert main(["compare", "made-up", "--methods", "d3dwa,dwa1"]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and says in err[0] and "nan" not in err[0].lower()
+def test_no_shared_layout_is_one_line_and_one_layout_prints_why(monkeypatch, capsys) -> None:
+    for layouts, code in (([], 2), (["L0"], 0)):
+        rows = [r for r in constructed() if r["method"] == "d3dwa" or r["world"] in layouts]
+        rows = [r for r in rows if r["method"] == "dwa1" or r["world"] in (layouts or ["L1"])]
+        monkeypatch.setattr(
+            compare,
+            "_side",
+            lambda out, m, warn=True, rows=rows: (
+                [r for r in rows if r["method"] == m],
+                "none",
+                True,
+            ),
+        )
+        assert main(["compare", "made-up", "--methods", "d3dwa,dwa1"]) == code
+        captured = capsys.readouterr()
+        if code:
+            err = captured.err.strip().splitlines()
+            assert len(err) == 1 and "share no layout: nothing to pair" in err[0]
+        else:
+            assert "share only one layout (L0); a test paired by layout needs 2" in captured.out
+            assert "nan" not in captured.out.lower() and "paired p" not in captured.out
 
 
 def test_no_difference_is_p_1_and_one_pair_has_no_p() -> None:
