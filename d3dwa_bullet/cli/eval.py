@@ -21,6 +21,7 @@ from d3dwa_bullet.cli.options import (
     ALLOW_EMPTY_HELP,
     add_backend_options,
     add_episode_options,
+    add_suite_options,
     default_methods,
     episode_config,
     list_arg,
@@ -28,6 +29,7 @@ from d3dwa_bullet.cli.options import (
     noise_arg,
     policy_arg,
     seed_arg,
+    suite_world_names,
     workers_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
@@ -53,6 +55,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="comma list (default: fixed baselines, random, learned methods with a shipped policy)",
     )
     p.add_argument("--worlds", help="comma list of names or files (default: TS1..TS4,US1,H1..H3)")
+    add_suite_options(p)
     p.add_argument(
         "--seeds", type=int, default=1, help="evaluation seeds per (method, training seed, world)"
     )
@@ -81,7 +84,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
     workers = workers_arg(args)
     config = episode_config(args)
     methods = [check_method(m) for m in list_arg(args.methods, "--methods", default_methods)]
-    world_args = list_arg(args.worlds, "--worlds", lambda: world_names(*TABLE1_GROUPS))
+    suite = suite_world_names(args)
+    world_args = suite or list_arg(args.worlds, "--worlds", lambda: world_names(*TABLE1_GROUPS))
     policy = policy_arg(args.policy, methods)
     if args.seeds < 1:
         raise ConfigError(f"--seeds must be >= 1, got {args.seeds}")

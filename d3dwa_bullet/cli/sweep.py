@@ -14,6 +14,7 @@ from d3dwa_bullet.cli.options import (
     ALLOW_EMPTY_HELP,
     add_backend_options,
     add_recovery_options,
+    add_suite_options,
     default_methods,
     episode_config,
     list_arg,
@@ -21,6 +22,7 @@ from d3dwa_bullet.cli.options import (
     policy_arg,
     seed_arg,
     split_list,
+    suite_world_names,
     time_limit_arg,
     workers_arg,
 )
@@ -53,8 +55,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seeds", type=int, default=2, help="episode seeds per condition")
     p.add_argument("--seed", type=int, default=0, help="first episode seed")
     p.add_argument("--worlds", help="shipped worlds, comma list (default: R1,R2,R3; '' for none)")
+    add_suite_options(p)
     p.add_argument("--allow-empty", action="store_true", help=ALLOW_EMPTY_HELP)
-    p.add_argument("--styles", help="generator styles (default: R1-style,R2-style,R3-style)")
+    p.add_argument(
+        "--styles", help="generator styles (default: R1-style,R2-style,R3-style; none with --suite)"
+    )
     p.add_argument(
         "--axes", help="noise axes (default: lidar_dropout,lidar_range,slip,odometry; '' for none)"
     )
@@ -80,10 +85,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     check_address(args.ray)
     workers = workers_arg(args)
     seed_arg(args.seed)
+    # --suite replaces --worlds, and the generated layouts are left out unless --styles asks
+    suite = suite_world_names(args)
+    given = split_list(args.worlds) if args.worlds is not None else SHIPPED_WORLDS
+    styles = split_list(args.styles) if args.styles is not None else (() if suite else STYLES)
     settings = SweepSettings(
         methods=tuple(list_arg(args.methods, "--methods", default_methods)),
-        worlds=tuple(split_list(args.worlds) if args.worlds is not None else SHIPPED_WORLDS),
-        styles=tuple(split_list(args.styles) if args.styles is not None else STYLES),
+        worlds=tuple(given if suite is None else suite), styles=tuple(styles),
         layouts=args.layouts, seeds=args.seeds, first_seed=args.seed, levels=args.levels,
         axes=tuple(split_list(args.axes) if args.axes is not None else AXES),
         profiles=tuple(split_list(args.profiles) if args.profiles is not None else PROFILES),

@@ -22,6 +22,7 @@ from typing import Any
 
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation.barn_tables import barn_section
 from d3dwa_bullet.evaluation.floors import FLOORS_NOTE, floor_records, floor_table
 from d3dwa_bullet.evaluation.jobs import figure_name, world_figures
 from d3dwa_bullet.evaluation.noise_axes import AXES
@@ -81,7 +82,8 @@ def eval_markdown(
     recovery layer the page says so under the title, each policy brought with ``--policy``
     names the config it was trained under (policy_notes, ``policy_config``), and worlds keyed
     apart from another of the same name (renamed: {key: source}, ``jobs.key_apart``) say which
-    file they are; the paper track's page of distinct worlds is unchanged."""
+    file they are; the paper track's page of distinct worlds is unchanged. BARN worlds add
+    rows per split and difficulty tercile (``barn_tables``)."""
     span = f"{seeds[0]}..{seeds[-1]}" if seeds else "none"
     keys = "".join(
         f"World `{key}` is {source} (keyed apart from another world of that name).\n\n"
@@ -105,7 +107,9 @@ def eval_markdown(
         + "\n## Paper layout, pooled over every run\n\n"
         "Time [s], TL [m], PD [rad] averaged over every successful episode; T = timeout, "
         "C = collision; (k/n) where only k of n episodes succeeded; best per world and metric "
-        "in bold.\n\n" + paper_table(rows, methods, worlds)
+        "in bold.\n\n"
+        + paper_table(rows, methods, worlds)
+        + barn_section(rows, methods, [noise], lambda r: r["noise"])
     )
 
 

@@ -46,6 +46,7 @@ from typing import Any
 from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig
+from d3dwa_bullet.evaluation.barn_tables import TERCILE_ORDER, tercile_group
 from d3dwa_bullet.evaluation.floors import FLOORS_NOTE, floor_records, floor_table
 from d3dwa_bullet.evaluation.jobs import Job, evaluate, noise_config_json
 from d3dwa_bullet.evaluation.noise_axes import AXES
@@ -68,9 +69,10 @@ from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.registry import load_world, world_paths
 
 SWEEP_FIELDS = (*CSV_FIELDS[:5], "axis", "level", "layout", *CSV_FIELDS[5:])
-LAYOUT_GROUPS = ("shipped", "given", "generated")
+LAYOUT_GROUPS = ("shipped", "given", *TERCILE_ORDER, "generated")
 """Where a sweep's layout comes from: a shipped world named in --worlds; any other --worlds
-entry (a generated layout by name, or a world file); one of the --layouts unseen layouts."""
+entry (a generated layout by name, or a world file); a BARN world (``--suite barn``), by its
+difficulty tercile (barn-easy, barn-middle, barn-hard); one of the --layouts unseen layouts."""
 
 
 @dataclass(frozen=True)
@@ -106,10 +108,13 @@ def unseen_layout_seeds(layouts: int) -> list[int]:
 
 
 def given_group(name: str) -> str:
-    """The layout group of a --worlds entry: "shipped" for a shipped world's name, "given"
-    for anything else (a generated layout by name, a world file)."""
+    """The layout group of a --worlds entry: "shipped" for a shipped world's name, a BARN
+    world's tercile group for its name (BARN-17), "given" for anything else (a generated
+    layout by name, a world file)."""
     shipped = {n.upper() for n in world_paths()}
-    return "shipped" if name.upper() in shipped else "given"
+    if name.upper() in shipped:
+        return "shipped"
+    return tercile_group(name) or "given"
 
 
 def sweep_worlds(settings: SweepSettings) -> list[tuple[World, str]]:
@@ -184,7 +189,9 @@ def profile_series(
 def layout_titles(settings: SweepSettings) -> dict[str, str]:
     """Column titles of the layout groups that the settings have."""
     titles = {}
-    for group, label in (("shipped", "shipped worlds"), ("given", "worlds given")):
+    labels = [("shipped", "shipped worlds"), ("given", "worlds given")]
+    labels += [(g, f"BARN {g.removeprefix('barn-')} tercile") for g in TERCILE_ORDER]
+    for group, label in labels:
         names = [Path(w).stem if Path(w).suffix else w
                  for w in settings.worlds if given_group(w) == group]  # fmt: skip
         if names:

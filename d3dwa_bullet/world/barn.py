@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
-from d3dwa_bullet.errors import InstallError, UnknownNameError, WorldFormatError
+from d3dwa_bullet.errors import ConfigError, InstallError, UnknownNameError, WorldFormatError
 from d3dwa_bullet.resources import barn_dir
 from d3dwa_bullet.world.model import Cylinder, World, validate_task
 
@@ -153,6 +153,43 @@ def barn_split_ids(split: str) -> tuple[int, ...]:
     return tuple(i for i in ids if split == "all" or barn_split(i) == split)
 
 
+def barn_selection(
+    split: str, ids: str | None = None, option: str = "--world-ids"
+) -> tuple[int, ...]:
+    """The worlds of ``split``, or the subset ``ids`` of it ('0,6,12', ranges as '0-30' mix
+    in), in the order given. ConfigError naming ``option`` for an empty list, a number that is
+    not a BARN world, a repeat, or a world outside the split."""
+    members = barn_split_ids(split)
+    if ids is None:
+        return members
+    chosen: list[int] = []
+    for part in (p.strip() for p in ids.split(",") if p.strip()):
+        match = re.fullmatch(r"(\d+)(?:-(\d+))?", part)
+        if match is None or (match[2] is not None and int(match[2]) < int(match[1])):
+            raise ConfigError(f"{option}: {part!r} is not a world number or a range like 0-30")
+        lo, hi = int(match[1]), int(match[2] or match[1])
+        if hi >= BARN_WORLDS:
+            raise ConfigError(f"{option}: {hi} is not a BARN world (0..{BARN_WORLDS - 1})")
+        chosen += range(lo, hi + 1)
+    if not chosen:
+        raise ConfigError(f"{option} is empty: name at least one world, or leave it out")
+    if len(set(chosen)) != len(chosen):
+        raise ConfigError(f"{option}: {ids!r} names a world twice")
+    outside = [i for i in chosen if i not in members]
+    if outside:
+        shown = ", ".join(map(str, outside[:5])) + (", ..." if len(outside) > 5 else "")
+        raise ConfigError(
+            f"{option}: world(s) {shown} not in the {split} split; choose --split all or "
+            f"{'train' if split == 'challenge' else 'challenge'}"
+        )
+    return tuple(chosen)
+
+
+def barn_name(index: int) -> str:
+    """The world name of BARN world ``index``: ``BARN-<index>``."""
+    return f"BARN-{check_index(index)}"
+
+
 def check_index(index: int) -> int:
     """``index`` if it names a BARN world (0..299), else UnknownNameError."""
     if isinstance(index, bool) or not isinstance(index, int | np.integer):
@@ -221,7 +258,7 @@ def barn_world(index: int) -> World:
     grid, path = read_world_file(path_file)
     split = barn_split(index)
     world = World(
-        name=f"BARN-{index}",
+        name=barn_name(index),
         description=f"BARN world {index} ({split} split), the-barn-challenge (MIT)",
         start=START,
         goal=GOAL,
@@ -235,8 +272,14 @@ def barn_world(index: int) -> World:
     return world
 
 
-def barn_world_from_name(name: str) -> World | None:
-    """The BARN world a name such as ``BARN-17`` (any case) names, or None if the name is not
-    of that form; UnknownNameError if its number is out of range."""
+def barn_index(name: str) -> int | None:
+    """The number of the BARN world a name such as ``BARN-17`` (any case) names, or None if
+    the name is not of that form; UnknownNameError if its number is out of range."""
     match = _NAME.fullmatch(name.strip())
-    return None if match is None else barn_world(int(match.group(1)))
+    return None if match is None else check_index(int(match.group(1)))
+
+
+def barn_world_from_name(name: str) -> World | None:
+    """The BARN world a name such as ``BARN-17`` (any case) names, or None (see barn_index)."""
+    index = barn_index(name)
+    return None if index is None else barn_world(index)

@@ -1,0 +1,66 @@
+"""``--suite barn --split --world-ids`` on eval, sweep and worlds: the worlds they choose, the
+per-split and per-tercile rows, and one-line refusals before any episode."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import pytest
+
+from d3dwa_bullet.cli.app import main
+from d3dwa_bullet.world.barn_difficulty import barn_tercile
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--suite", "barn", "--split", "test"], "--split: unknown split 'test'"),
+        (["--suite", "maze"], "--suite: unknown suite 'maze'"),
+        (["--suite", "barn", "--world-ids", "300"], "--world-ids: 300 is not a BARN world"),
+        (["--suite", "barn", "--world-ids", " , "], "--world-ids is empty"),
+        (["--suite", "barn", "--world-ids", "0,1"], "world(s) 1 not in the challenge split"),
+        (["--suite", "barn", "--split", "train", "--world-ids", "6"], "6 not in the train split"),
+        (["--suite", "barn", "--world-ids", "0,0"], "names a world twice"),
+        (["--suite", "barn", "--world-ids", "x"], "'x' is not a world number"),
+        (["--split", "train"], "--split needs --suite barn"),
+        (["--world-ids", "3"], "--world-ids needs --suite barn"),
+        (["--suite", "barn", "--worlds", "R1"], "--worlds and --suite exclude each other"),
+    ],
+)
+@pytest.mark.parametrize("command", ["eval", "sweep"])
+def test_bad_suite_input_is_one_line_and_exit_2(command, argv, message, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main([command, *argv, "--methods", "dwa3", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("d3dwa: error: ") and message in err[0]
+    assert not out.exists()
+
+
+def test_worlds_lists_the_suite_with_split_and_tercile(capsys):
+    assert main(["worlds", "--suite", "barn", "--json"]) == 0
+    records = json.loads(capsys.readouterr().out)
+    assert [r["id"] for r in records] == list(range(300))
+    assert sum(r["split"] == "challenge" for r in records) == 50
+    assert all(r["tercile"] == barn_tercile(r["id"]) for r in records)
+    assert main(["worlds", "--suite", "barn", "--split", "challenge", "--world-ids", "0,6"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [ln.split()[0] for ln in lines[2:]] == ["BARN-0", "BARN-6"]
+    assert all("challenge" in ln for ln in lines[2:])
+
+
+def test_eval_runs_the_subset_and_adds_rows_per_tercile(tmp_path, capsys):
+    out = tmp_path / "eval"
+    argv = ["eval", "--suite", "barn", "--world-ids", "0,6", "--methods", "dwa3",
+            "--seeds", "1", "--workers", "1", "--out", str(out), "--json"]  # fmt: skip
+    assert main(argv) == 0
+    with (out / "results.csv").open() as f:
+        assert sorted(r["world"] for r in csv.DictReader(f)) == ["BARN-0", "BARN-6"]
+    table = (out / "table.md").read_text()
+    assert "## BARN by split and difficulty" in table
+    for i in (0, 6):
+        assert f"| DWA III (2,1,1) | barn-{barn_tercile(i)} |" in table
+    assert "barn-challenge" not in table  # one split: no split rows
+    capsys.readouterr()
+    assert main(argv) == 0  # resumed: nothing to run, same table
+    assert (out / "table.md").read_text() == table
