@@ -5,8 +5,9 @@ A results directory holds (and, while a command writes it, ``.d3dwa.lock``: see
 
     meta.json          format version, package version, episode config, the command's
                        settings and the key of every job of the last run (what "complete" means)
-    results.csv        one row per finished episode: appended as episodes finish, then, once
-                       every job of the run is in, rewritten in the order the jobs were listed
+    results.csv        one row per finished episode, with its score (SCORE_FIELDS,
+                       docs/design.md#score): appended as episodes finish, then, once every
+                       job of the run is in, rewritten in the order the jobs were listed
     logs/*.npz         the per-step log of every episode (pose, command, weights, tau, obs)
     table.md           Table I layout, written only once every episode is in results.csv
     figures/*.png      one trajectory figure per world (all methods side by side)
