@@ -47,9 +47,18 @@ TYPED_COLUMNS: dict[str, tuple[Callable[[str], Any], str]] = {
         "a number, or inf for a world without obstacles",
     ),
     "steps": _COUNT,
+    **dict.fromkeys(
+        ("score", "score_barn"),
+        (_checked(float, lambda v: 0 <= v <= 1), "a number from 0 to 1"),
+    ),
+    "reference_length_m": (
+        _checked(float, lambda v: math.isfinite(v) and v > 0),
+        "a finite number > 0",
+    ),
 }
 """How read_results reads each typed column, and what the message says it must be: a NaN
-or inf where a table averages, or an outcome no table counts, is refused, not counted."""
+or inf where a table averages, or an outcome no table counts, is refused, not counted. The
+score columns are absent from a directory made before the score; its rows read them as None."""
 
 
 def check_one_track(path: Path, rows: Sequence[Mapping[str, Any]], column: str) -> None:

@@ -27,6 +27,7 @@ from d3dwa_bullet.backends import open_backend
 from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig, EpisodeResult, run_episode
+from d3dwa_bullet.episode_metrics import SCORE_FORM
 from d3dwa_bullet.errors import ConfigError, ResultsError
 from d3dwa_bullet.evaluation.policy_runs import check_scan_filters
 from d3dwa_bullet.evaluation.results import (
@@ -46,12 +47,14 @@ from d3dwa_bullet.evaluation.results import (
     with_recovery,
     write_meta,
 )
+from d3dwa_bullet.evaluation.scores import add_scores, needs_scores, score_cells
 from d3dwa_bullet.io import file_stem
 from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.method_specs import method_label
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.noise_config import NoiseConfig
 from d3dwa_bullet.world.model import World
+from d3dwa_bullet.world.routes import reference_length
 from randomization import episode_noise, load_profile
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9._=+-]")
@@ -83,11 +86,16 @@ class Job:
     def log_name(self) -> str:
         return log_name(self.key)
 
-    def row(self, result: EpisodeResult) -> dict[str, Any]:
-        """The CSV row of this job's result."""
+    def row(self, result: EpisodeResult, v_max: float) -> dict[str, Any]:
+        """The CSV row of this job's result, scored (docs/design.md#score) with the world's
+        reference length and v_max, the robot's top speed (m/s)."""
+        summary = result.summary()
         return (
-            result.summary()
+            summary
             | {"policy_seed": policy_seed_cell(self.policy_seed)}
+            | score_cells(
+                summary["outcome"], summary["time_s"], reference_length(self.world), v_max
+            )
             | dict(self.columns)
         )
 
@@ -187,7 +195,8 @@ def _evaluate(
 ) -> list[dict[str, Any]]:
     recovery = config.recovery_name
     fields = with_recovery(fields, recovery)
-    settings = dict(settings or {"kind": "eval"})
+    settings = dict(settings or {"kind": "eval"}) | {"score_form": SCORE_FORM}
+    v_max = config.planner.limits.v_max
     if recovery != "none":
         settings["recovery"] = recovery
     check_distinct(jobs)
@@ -201,6 +210,8 @@ def _evaluate(
     done = {row_key(r) for r in read_results(out)}
     keys = [j.key for j in jobs]
     check_same_run(out, keys, config, settings)
+    if needs_scores(out, fields):  # a directory from before the score: its rows scored first
+        add_scores(out, fields, {j.world.name: reference_length(j.world) for j in jobs}, v_max)
     todo = [j for j in jobs if j.key not in done]
     with open_backend(workers, ray_address, needed=bool(todo)) as run:
         (out / "logs").mkdir(parents=True, exist_ok=True)
@@ -221,7 +232,7 @@ def _evaluate(
         ):
             for job, result in run(_worker, todo, config):
                 save_log(result, out / "logs" / job.log_name)
-                append(job.row(result))
+                append(job.row(result, v_max))
                 bar.set_postfix_str(f"{job.world.name} {job.method}: {result.outcome}")
                 bar.update(1)
     rows = [r for r in read_results(out) if row_key(r) in unique]

@@ -34,6 +34,7 @@ from d3dwa_bullet.evaluation.results import (
     recovery_of,
     row_key,
 )
+from d3dwa_bullet.evaluation.score_tables import score_tables
 from d3dwa_bullet.evaluation.seed_tables import check_not_mixed, per_seed_table, seed_tables
 from d3dwa_bullet.evaluation.sweep import (
     SweepSettings,
@@ -100,9 +101,12 @@ def eval_markdown(
         "evaluation seed of a method without a policy (fixed, or the random reference). "
         "Intervals: 95 % stratified bootstrap over runs "
         "(scipy.stats.bootstrap, percentile); time is the interquartile mean of the runs' "
-        "mean time to goal; *all* averages the worlds. Each training seed's row: "
-        "table_seeds.md.\n\n"
+        "mean time to goal; *all* averages the worlds. Score: per episode success x t_ref / "
+        "clip(t, t_ref, 8 t_ref), t_ref = L / v_max, L the route length (docs/design.md#score); "
+        "a run's score is its episodes' mean. Each training seed's row: table_seeds.md.\n\n"
         + seed_tables(rows, methods, worlds)
+        + "\n"
+        + score_tables(rows, methods, worlds)
         + floors_section(rows, methods)
         + "\n## Paper layout, pooled over every run\n\n"
         "Time [s], TL [m], PD [rad] averaged over every successful episode; T = timeout, "
@@ -126,7 +130,8 @@ def seeds_markdown(
     return (
         f"# Per training seed: {', '.join(worlds)}\n\n"
         "Cells: successes/episodes, mean time to goal of the successes; T = timeout, "
-        "C = collision.\n\n" + per_seed_table(rows, methods, worlds)
+        "C = collision. Score, BARN: the mean episode score over every world (robot form, "
+        "BARN's official form; docs/design.md#score).\n\n" + per_seed_table(rows, methods, worlds)
     )
 
 

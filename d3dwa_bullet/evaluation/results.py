@@ -5,8 +5,9 @@ A results directory holds (and, while a command writes it, ``.d3dwa.lock``: see
 
     meta.json          format version, package version, episode config, the command's
                        settings and the key of every job of the last run (what "complete" means)
-    results.csv        one row per finished episode: appended as episodes finish, then, once
-                       every job of the run is in, rewritten in the order the jobs were listed
+    results.csv        one row per finished episode, with its score (SCORE_FIELDS,
+                       docs/design.md#score): appended as episodes finish, then, once every
+                       job of the run is in, rewritten in the order the jobs were listed
     logs/*.npz         the per-step log of every episode (pose, command, weights, tau, obs)
     table.md           Table I layout, written only once every episode is in results.csv
     figures/*.png      one trajectory figure per world (all methods side by side)
@@ -49,8 +50,13 @@ from d3dwa_bullet.loading import load_json, parse_json
 if TYPE_CHECKING:  # for annotations only: this module reads and writes files, runs nothing
     from d3dwa_bullet.episode import EpisodeResult
 
-RESULTS_FORMAT = 3
-"""3: rows and job keys name the policy's training seed (2 had none; 1 had no job keys)."""
+RESULTS_FORMAT = 4
+"""4: rows carry the episode score (3: no score; 2: no policy seed; 1: no job keys)."""
+UNSCORED_FORMAT = 3
+"""The format before the score: still read (its rows' score columns are None, tables say so)
+and, resumed by eval or sweep, brought to RESULTS_FORMAT by scoring its rows (scores.py)."""
+SCORE_FIELDS = ("score", "score_barn", "reference_length_m")
+"""The score columns (docs/design.md#score): robot form, BARN's official form, and L, m."""
 CSV_FIELDS = (
     "world",
     "method",
@@ -63,6 +69,7 @@ CSV_FIELDS = (
     "pd_rad",
     "min_clearance_m",
     "steps",
+    *SCORE_FIELDS,
 )
 RECOVERY_FIELD = "recovery"
 """The column a run with a recovery layer adds (its ``--recovery`` name in every row); a
@@ -85,6 +92,11 @@ that sets them: one directory holds one value of each."""
 def with_recovery(fields: Sequence[str], recovery: str) -> tuple[str, ...]:
     """The CSV columns of a run: fields, plus RECOVERY_FIELD when a recovery layer runs."""
     return tuple(fields) if recovery == "none" else (*fields, RECOVERY_FIELD)
+
+
+def unscored(fields: Sequence[str]) -> list[str]:
+    """The columns a run of ``fields`` wrote before the score (UNSCORED_FORMAT)."""
+    return [f for f in fields if f not in SCORE_FIELDS]
 
 
 def recovery_of(out: Path, meta: Mapping[str, Any] | None = None) -> str:
@@ -111,9 +123,14 @@ def read_results(out: Path) -> list[dict[str, Any]]:
         return []
     rows = list(csv.DictReader(io.StringIO(read_text(path, ResultsError, "CSV file"), newline="")))
     for line, row in enumerate(rows, start=2):
-        if set(CSV_FIELDS) - set(row):
-            raise ResultsError(f"{path}: missing columns {sorted(set(CSV_FIELDS) - set(row))}")
+        if set(CSV_FIELDS) - set(SCORE_FIELDS) - set(row):
+            missing = set(CSV_FIELDS) - set(SCORE_FIELDS) - set(row)
+            raise ResultsError(f"{path}: missing columns {sorted(missing)}")
+        for column in SCORE_FIELDS:  # a directory from before the score: no score, said so
+            row.setdefault(column, None)
         for column, (parse, expected) in TYPED_COLUMNS.items():
+            if row[column] is None and column in SCORE_FIELDS:
+                continue
             try:
                 row[column] = parse(row[column])
             except (TypeError, ValueError) as err:  # TypeError: a row shorter than the header
@@ -182,7 +199,7 @@ def check_results_dir(
     meta = out / "meta.json"
     if meta.exists():
         fmt = read_meta(out).get("format")
-        if fmt != RESULTS_FORMAT:
+        if fmt not in (RESULTS_FORMAT, UNSCORED_FORMAT):
             raise ResultsError(
                 f"{meta}: results format {fmt!r}, this version writes {RESULTS_FORMAT}; use a new --out directory"
             )
@@ -198,7 +215,7 @@ def check_results_dir(
             f"has --recovery {recovery}; one directory holds one recovery setting: use "
             "another --out directory"
         )
-    if fields is not None and header is not None and header != list(fields):
+    if fields is not None and header is not None and header not in (list(fields), unscored(fields)):
         kind = read_meta(out).get("settings", {}).get("kind", "another command")
         raise ResultsError(
             f"{out / 'results.csv'}: columns {header} were written by {kind!r}, this command "
@@ -241,6 +258,12 @@ def check_same_run(
             "use the same options to resume, or another --out directory"
         )
     before = meta.get("settings", {})
+    form, now = before.get("score_form"), settings.get("score_form")
+    if form is not None and now is not None and form != now:
+        raise ResultsError(
+            f"{out / 'meta.json'}: its rows were scored in form {form!r}, this version scores "
+            f"in form {now!r}; one directory holds one form: use another --out directory"
+        )
     for key, option in EPISODE_SETTINGS.items():
         if (key in before or key in settings) and before.get(key) != settings.get(key):
             raise ResultsError(

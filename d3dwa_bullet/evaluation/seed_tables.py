@@ -10,6 +10,8 @@ seeds, not only between episodes.
 - success: per run, the fraction of its episodes that reached the goal;
 - time: per run, the mean time to goal of its successful episodes (runs without a success
   have none), summarised as the interquartile mean (IQM) over runs;
+- score: per run, the mean episode score (docs/design.md#score; failures score 0), in
+  :mod:`~d3dwa_bullet.evaluation.score_tables`;
 - improvement: P(A > B), the chance that a run of A has a higher success score than a run
   of B on a task (ties half), averaged over tasks (Agarwal et al., 2021).
 
@@ -69,6 +71,12 @@ def _by_run(rows: Sequence[Row]) -> dict[Run, list[Row]]:
 def success_scores(rows: Sequence[Row]) -> list[float]:
     """One success score per run of rows (one method on one task), in run order."""
     return [float(np.mean([r["outcome"] == "goal" for r in rs])) for rs in _by_run(rows).values()]
+
+
+def column_scores(rows: Sequence[Row], column: str) -> list[float]:
+    """Per run of rows (one method on one task), the mean of a numeric column (e.g. the
+    episode score, failures 0), in run order."""
+    return [float(np.mean([r[column] for r in rs])) for rs in _by_run(rows).values()]
 
 
 def time_scores(rows: Sequence[Row]) -> list[float]:
@@ -162,12 +170,15 @@ def seed_tables(
 
 
 def per_seed_table(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence[str]) -> str:
-    """One row per (method, training seed): successes/episodes and mean time per world.
-    Fixed methods get one row over all their evaluation seeds."""
+    """One row per (method, training seed): successes/episodes and mean time per world, then
+    over every world the success rate and the mean score in both forms (robot, BARN's;
+    ``--`` for rows from before the score). Fixed methods get one row over all their
+    evaluation seeds."""
     cells = _cells(rows)
+    scored = all(r.get("score") is not None for r in rows)
     lines = [
-        "| Method | training seed | " + " | ".join(worlds) + " | success |",
-        "|---|---:|" + "---:|" * (len(worlds) + 1),
+        "| Method | training seed | " + " | ".join(worlds) + " | success | score | BARN |",
+        "|---|---:|" + "---:|" * (len(worlds) + 3),
     ]
     for m in methods:
         mine = [r for r in rows if r["method"] == m]
@@ -186,8 +197,16 @@ def per_seed_table(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence
                     n_c = sum(r["outcome"] == "collision" for r in rs)
                     parts.append(f"0/{len(rs)} ({n_c} C, {len(rs) - n_c} T)")
             rate = f"{100 * n_ok / n_all:.0f} %" if n_all else ""
+            mine_k = [r for r in mine if r["policy_seed"] == k]
+            score = barn = "--"
+            if scored and mine_k:
+                score = f"{np.mean([r['score'] for r in mine_k]):.2f}"
+                barn = f"{np.mean([r['score_barn'] for r in mine_k]):.3f}"
             seed = "--" if k is None else str(k)
-            lines.append(f"| {method_label(m)} | {seed} | " + " | ".join(parts) + f" | {rate} |")
+            lines.append(
+                f"| {method_label(m)} | {seed} | " + " | ".join(parts)
+                + f" | {rate} | {score} | {barn} |"
+            )  # fmt: skip
     return "\n".join(lines) + "\n"
 
 
@@ -269,10 +288,15 @@ def condition_table(
     column_of: Callable[[Row], str | None],
     layouts: Sequence[str],
     layout_of: Callable[[Row], str],
+    cell: Callable[[list[list[float]]], str] | None = None,
+    scores: Callable[[Sequence[Row]], list[float]] = success_scores,
 ) -> str:
     """Success over runs per (layout group, method) and column (e.g. a noise profile): the
     mean over the group's worlds with its stratified interval, as Markdown. Rows whose
-    column_of is None are left out; an "all layouts" group follows when there are several."""
+    column_of is None are left out; an "all layouts" group follows when there are several.
+    scores: the per-run scores of one world's rows (default success); cell: the text of a
+    cell from the per-world lists of them (default the mean [interval] in %)."""
+    cell = cell or (lambda per_world: _rate(mean_interval(per_world)))
     groups = [*layouts, "all layouts"] if len(layouts) > 1 else list(layouts)
     cells: dict[tuple[str, str, str], dict[str, list[Row]]] = defaultdict(lambda: defaultdict(list))
     for r in rows:
@@ -290,11 +314,7 @@ def condition_table(
             parts = []
             for c in columns:
                 worlds = cells.get((g, m, c))
-                parts.append(
-                    _rate(mean_interval([success_scores(rs) for rs in worlds.values()]))
-                    if worlds
-                    else ""
-                )
+                parts.append(cell([scores(rs) for rs in worlds.values()]) if worlds else "")
             if any(parts):
                 lines.append(f"| {method_label(m)} | {g} | " + " | ".join(parts) + " |")
     return "\n".join(lines) + "\n"

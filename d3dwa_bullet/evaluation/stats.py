@@ -59,15 +59,26 @@ class CellStats:
     """Mean time to goal over the successful episodes, s (nan if none)."""
     time_lo: float
     time_hi: float
+    score_mean: float = math.nan
+    """Mean episode score, robot form (docs/design.md#score); nan for rows without a score."""
+    score_barn_mean: float = math.nan
+    """Mean episode score, BARN's official form; nan for rows without a score."""
 
     @classmethod
     def of(cls, rows: Sequence[Mapping[str, Any]]) -> CellStats:
-        """Stats of result rows (keys ``outcome`` and ``time_s``, as in results.csv)."""
+        """Stats of result rows (keys ``outcome``, ``time_s`` and, if scored, ``score`` and
+        ``score_barn``, as in results.csv)."""
         times = [r["time_s"] for r in rows if r["outcome"] == "goal"]
         n, k = len(rows), len(times)
         lo, hi = wilson_interval(k, n)
         mean, tlo, thi = t_interval(times)
-        return cls(n, k, k / n if n else math.nan, lo, hi, mean, tlo, thi)
+        scored = bool(rows) and all(r.get("score") is not None for r in rows)
+        score, barn = (
+            (float(np.mean([r[c] for r in rows])) for c in ("score", "score_barn"))
+            if scored
+            else (math.nan, math.nan)
+        )
+        return cls(n, k, k / n if n else math.nan, lo, hi, mean, tlo, thi, score, barn)
 
 
 Series = dict[str, dict[str, list[tuple[Any, CellStats]]]]

@@ -54,6 +54,8 @@ from d3dwa_bullet.evaluation.plotting import sweep_figure
 from d3dwa_bullet.evaluation.policy_config import policy_config_notes
 from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
 from d3dwa_bullet.evaluation.results import CSV_FIELDS, completion, read_results, row_key
+from d3dwa_bullet.evaluation.score_tables import score_condition_tables
+from d3dwa_bullet.evaluation.scores import UNSCORED_NOTE, is_scored
 from d3dwa_bullet.evaluation.seed_tables import condition_table
 from d3dwa_bullet.evaluation.stats import Series, group_series
 from d3dwa_bullet.evaluation.sweep_settings import (
@@ -245,8 +247,12 @@ def sweep_markdown(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -
     titles = layout_titles(settings)
     parts = [
         "Cells: successes/episodes, mean time to goal of the successes ± half-width of the "
-        "95 % t-interval. Layouts: " + "; ".join(f"*{k}* = {v}" for k, v in titles.items()) + ".\n"
+        "95 % t-interval; then the mean episode score (docs/design.md#score). Layouts: "
+        + "; ".join(f"*{k}* = {v}" for k, v in titles.items())
+        + ".\n"
     ]
+    if not is_scored(rows):
+        parts.append(f"\n{UNSCORED_NOTE}\n")
     if note := repeats_note(settings.seeds, "their noise-free cells (level 0, profile `none`)"):
         parts.append("\n" + note.rstrip("\n") + "\n")
     for name in settings.axes:
@@ -263,9 +269,19 @@ def sweep_markdown(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -
             "layouts of a group, 95 % stratified bootstrap over runs (a learned method's "
             "training seeds, the evaluation seeds of a fixed or reference method).\n\n"
         )
+        groups = [g for g in LAYOUT_GROUPS if g in titles]
         parts.append(
             condition_table(rows, settings.methods, settings.profiles, profile_of,
-                            [g for g in LAYOUT_GROUPS if g in titles], lambda r: r["layout"])
+                            groups, lambda r: r["layout"])
+        )  # fmt: skip
+        parts.append(
+            "\n### Named profiles: score over training seeds\n\nPer run the mean episode "
+            "score (docs/design.md#score), averaged over the layouts of a group; 95 % "
+            "stratified bootstrap over runs.\n\n"
+        )
+        parts.append(
+            score_condition_tables(rows, settings.methods, settings.profiles, profile_of,
+                                   groups, lambda r: r["layout"])
         )  # fmt: skip
     floors = floor_table(floor_records(rows, settings.methods))
     if floors:

@@ -7,7 +7,8 @@ the paper. Where only some seeds succeeded the Time cell says how many, e.g. ``1
 The best value per world and metric among methods with a success is bold (ties all bold).
 
 The sweep's tables: one row per method and layout group, one column per noise level or
-profile, each cell "successes/episodes, mean time ± half-width of its 95 % t-interval".
+profile, each cell "successes/episodes, mean time ± half-width of its 95 % t-interval; mean
+score" (the score left out for rows from before it).
 """
 
 from __future__ import annotations
@@ -84,6 +85,8 @@ def _cell(s: CellStats) -> str:
         text += f", {s.time_mean:.1f} s"
         if math.isfinite(s.time_lo):
             text += f" ± {(s.time_hi - s.time_lo) / 2:.1f}"
+    if math.isfinite(s.score_mean):
+        text += f"; {s.score_mean:.2f}"
     return text
 
 

@@ -3,13 +3,15 @@
 Pure functions over a :class:`~d3dwa_bullet.world.model.World` and its
 :func:`~d3dwa_bullet.world.grid.clearance_field`, no simulator. Used to check that a world
 is passable and how long its shortest route is (``tools/experiments/check_worlds.py``), to
-reject impassable generated layouts, for route starts, and by the oracle's route field.
+reject impassable generated layouts, for route starts, by the oracle's route field, and for the
+length L of the episode score (:func:`reference_length`, docs/design.md#score).
 Obstacles are inflated by the planner's r + m and the robot is a point at base_link
 (:mod:`~d3dwa_bullet.world.grid`).
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -234,3 +236,25 @@ def geodesic_field(
     dist = dist.reshape(free.shape)
     dist[~free] = np.inf
     return Grid(values=dist, origin=field.origin, resolution=resolution)
+
+
+@functools.lru_cache(maxsize=1024)
+def reference_length(world: World) -> float:
+    """L of the episode score (docs/design.md#score), m: the world's published reference path
+    length (``World.reference_length``, BARN's) when it has one, else the length of
+    :func:`shortest_path` (base_link as a point, obstacles inflated by the planner's r + m);
+    where no such route exists (start or goal within r + m of an obstacle, or every gap
+    narrower than 2 (r + m)), the straight line from start to goal, a lower bound of any path.
+    Never below one grid cell (``DEFAULT_RESOLUTION``), so a start on the goal has a t_ref.
+
+    Cached per world (a route costs ~0.2-1 s on a 0.02 m grid): one computation per world
+    and process however many episodes it has."""
+    if world.reference_length is not None:
+        return float(world.reference_length)
+    line = math.hypot(world.goal[0] - world.start[0], world.goal[1] - world.start[1])
+    if line < DEFAULT_RESOLUTION:  # within one cell: no route to search
+        return DEFAULT_RESOLUTION
+    try:
+        return max(shortest_path(world).length, DEFAULT_RESOLUTION)
+    except WorldFormatError:
+        return line

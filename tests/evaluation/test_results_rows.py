@@ -18,7 +18,8 @@ from tests.support.cli import refused, run
 GOOD = {
     "world": "TS1", "method": "dwa1", "policy_seed": "", "seed": "0", "noise": "none",
     "outcome": "goal", "time_s": "12.3", "tl_m": "4.5", "pd_rad": "0.7",
-    "min_clearance_m": "0.21", "steps": "123",
+    "min_clearance_m": "0.21", "steps": "123", "score": "0.813008", "score_barn": "0.162602",
+    "reference_length_m": "4.0",
 }  # fmt: skip
 
 

@@ -14,8 +14,9 @@ from d3dwa_bullet.evaluation.jobs import log_name
 from d3dwa_bullet.evaluation.results import CSV_FIELDS, appending_rows, row_key
 
 ROW_DEFAULTS = dict(seed=0, outcome="goal", time_s=1.0, tl_m=0.0, pd_rad=0.0,
-                    min_clearance_m=0.1, steps=10)  # fmt: skip
-"""The fields a test leaves out."""
+                    min_clearance_m=0.1, steps=10, score=1.0, score_barn=0.2,
+                    reference_length_m=0.4)  # fmt: skip
+"""The fields a test leaves out (the score of a goal in 1 s on a 0.4 m route at 0.4 m/s)."""
 SWEEP_DEFAULTS = dict(axis="profile", level="", layout="generated")
 """... and the sweep's own columns."""
 

@@ -1,0 +1,113 @@
+"""The episode score in the tables (docs/design.md#score): over runs, with 95 % intervals.
+
+Per run (a learned method's training seed, a fixed method's evaluation seed: see
+:mod:`~d3dwa_bullet.evaluation.seed_tables`), the mean score of its episodes (a failure
+scores 0); over runs, the same stratified bootstrap as success
+(:mod:`~d3dwa_bullet.evaluation.seed_stats`): the mean over tasks with its interval, and the
+interquartile mean (IQM) of every run's score pooled. The robot form (``SCORE_FORM``) leads;
+BARN's official form is printed beside it for published numbers. Rows from before the score
+have none: a table then prints :data:`~d3dwa_bullet.evaluation.scores.UNSCORED_NOTE`.
+
+Pure functions of results rows: no simulator, no torch.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Callable, Sequence
+from functools import partial
+
+from d3dwa_bullet.episode_metrics import SCORE_FORM
+from d3dwa_bullet.evaluation.scores import UNSCORED_NOTE, is_scored
+from d3dwa_bullet.evaluation.seed_stats import Interval, iqm_interval, mean_interval
+from d3dwa_bullet.evaluation.seed_tables import Row, column_scores, condition_table
+from d3dwa_bullet.method_specs import method_label
+
+ROBOT = "score"
+BARN = "score_barn"
+
+
+def _fmt(i: Interval, digits: int) -> str:
+    return f"{i.value:.{digits}f} [{i.low:.{digits}f}, {i.high:.{digits}f}]"
+
+
+def score_cell(per_world: list[list[float]], stat=mean_interval, digits: int = 2) -> str:
+    """A table cell: ``stat`` (mean_interval or iqm_interval) of per-world lists of per-run
+    scores, as "value [low, high]"."""
+    return _fmt(stat(per_world), digits)
+
+
+def _per_world(rows: Sequence[Row], column: str) -> list[list[float]]:
+    worlds: dict[str, list[Row]] = defaultdict(list)
+    for r in rows:
+        worlds[r["world"]].append(r)
+    return [column_scores(rs, column) for rs in worlds.values()]
+
+
+def score_tables(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence[str]) -> str:
+    """Markdown: the robot-form score per (method, world), mean over runs [95 % interval]
+    with an "all" column (mean over worlds), then per method over every world: mean and IQM
+    of both forms. Rows from before the score: the note instead."""
+    head = f"### Score ({SCORE_FORM}), mean over runs, 95 % interval\n\n"
+    if not is_scored(rows):
+        return f"{head}{UNSCORED_NOTE}\n"
+    per_world = [
+        "| Method | " + " | ".join(worlds) + " | all |",
+        "|---|" + "---:|" * (len(worlds) + 1),
+    ]
+    summary = [
+        "| Method | mean [95 %] | IQM [95 %] | BARN mean [95 %] | BARN IQM [95 %] |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    for m in methods:
+        mine = [r for r in rows if r["method"] == m]
+        if not mine:
+            continue
+        cells = []
+        for w in worlds:
+            rs = [r for r in mine if r["world"] == w]
+            cells.append(score_cell([column_scores(rs, ROBOT)]) if rs else "")
+        robot, barn = _per_world(mine, ROBOT), _per_world(mine, BARN)
+        per_world.append(
+            f"| {method_label(m)} | " + " | ".join(cells) + f" | {score_cell(robot)} |"
+        )
+        summary.append(
+            f"| {method_label(m)} | {score_cell(robot)} | {score_cell(robot, iqm_interval)} | "
+            f"{score_cell(barn, digits=3)} | {score_cell(barn, iqm_interval, 3)} |"
+        )
+    return (
+        head
+        + "\n".join(per_world)
+        + f"\n\n### Score over every world: {SCORE_FORM} and BARN's official form\n\n"
+        + "\n".join(summary)
+        + "\n"
+    )
+
+
+def score_condition_tables(
+    rows: Sequence[Row],
+    methods: Sequence[str],
+    columns: Sequence[str],
+    column_of: Callable[[Row], str | None],
+    layouts: Sequence[str],
+    layout_of: Callable[[Row], str],
+) -> str:
+    """The score per (layout group, method) and column (e.g. a noise profile), over runs
+    stratified by world, as three Markdown tables: robot-form mean, robot-form IQM, BARN's
+    official mean (each with its 95 % interval). Rows from before the score: the note."""
+    if not is_scored(rows):
+        return f"{UNSCORED_NOTE}\n"
+    table = partial(condition_table, rows, methods, columns, column_of, layouts, layout_of)
+    parts = (
+        (f"Score ({SCORE_FORM}), mean", ROBOT, mean_interval, 2),
+        (f"Score ({SCORE_FORM}), IQM", ROBOT, iqm_interval, 2),
+        ("BARN's official score, mean", BARN, mean_interval, 3),
+    )
+    return "\n".join(
+        f"{title} [95 % interval]:\n\n"
+        + table(
+            cell=partial(score_cell, stat=stat, digits=digits),
+            scores=partial(column_scores, column=column),
+        )
+        for title, column, stat, digits in parts
+    )
