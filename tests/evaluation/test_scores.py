@@ -96,15 +96,16 @@ def test_score_tables_by_hand():
     page = score_tables(rows, ["dwa1", "dwa3"], ["A", "B"])
     # one run per world: each interval is its point; all = mean over worlds
     assert "| DWA I (1,1,2) | 0.50 [0.50, 0.50] | 0.00 [0.00, 0.00] | 0.25 [0.25, 0.25] |" in page
-    assert "| DWA III (2,1,1) | 0.75 [0.75, 0.75] | 0.75 [0.75, 0.75] | 0.375 [0.375, 0.375] |" in (
-        page
-    )  # mean, IQM of the two pooled runs, BARN mean
+    # mean, IQM of the two runs pooled, BARN mean
+    assert (
+        "| DWA III (2,1,1) | 0.75 [0.75, 0.75] | 0.75 [0.75, 0.75] | 0.375 [0.375, 0.375] |" in page
+    )
     assert max(len(line) for line in page.splitlines()) <= 120
     profiles = score_condition_tables(
         rows, ["dwa3"], ["none"], lambda r: "none", ["g"], lambda r: "g"
     )
     assert "| DWA III (2,1,1) | g | 0.75 [0.75, 0.75] |" in profiles
-    assert "| DWA III (2,1,1) | g | 0.375 [0.375, 0.375] |" in profiles
+    assert "| DWA III (2,1,1) | g | 0.375 |" in profiles
 
 
 def eval_args(world: str, out: Path) -> list[str]:
@@ -152,3 +153,17 @@ def test_a_directory_scored_in_another_form_is_refused(one_second_world, tmp_pat
     err = capsys.readouterr().err.strip()
     assert err.startswith("d3dwa: error:") and "\n" not in err
     assert f"scored in form 'kachaka-v0', this version scores in form '{SCORE_FORM}'" in err
+
+
+def test_the_iqm_trims_a_quarter_at_each_end_and_the_summary_fits_120_characters():
+    scores = {"A": 0.0, "B": 0.2, "C": 0.6, "D": 1.0}
+    rows = [
+        {"method": "random@10", "world": w, "policy_seed": None, "seed": 0, "outcome": "goal",
+         "time_s": 10.0, "score": s, "score_barn": s / 4}
+        for w, s in scores.items()
+    ]  # fmt: skip
+    page = score_tables(rows, ["random@10"], list(scores))
+    # mean 0.45; IQM of 0, 0.2, 0.6, 1.0 = mean of 0.2 and 0.6; BARN mean 0.45 / 4
+    summary = next(line for line in page.splitlines() if "0.40 [0.40, 0.40]" in line)
+    assert summary.endswith("| 0.45 [0.45, 0.45] | 0.40 [0.40, 0.40] | 0.113 [0.113, 0.113] |")
+    assert len(summary) <= 120  # the longest method label there is

@@ -301,3 +301,18 @@ def test_cli_sweep_json_summary(one_second_world, tmp_path, capsys):
     assert points == [("lidar_range", 0.0, 2), ("lidar_range", 0.1, 2)]
     assert all(np.isfinite(s["rate_lo"]) for s in out["summary"])
     assert all(s["time_mean"] is None or np.isfinite(s["time_mean"]) for s in out["summary"])
+
+
+def test_the_sweep_page_scores_each_cell_and_marks_rows_from_before_the_score(
+    tiny_sweep, one_second_world
+):
+    _, rows, _ = tiny_sweep
+    settings = tiny_settings(one_second_world)
+    page = sweep_markdown(rows, settings)
+    assert "Score (kachaka-v1), mean [95 % interval]" in page and "BARN's official score" in page
+    assert "; 0.00 |" in page  # one-second episodes: every one a timeout, every score 0
+    assert "No score" not in page
+    old = [r | {"score": None, "score_barn": None, "reference_length_m": None} for r in rows]
+    unscored = sweep_markdown(old, settings)
+    assert "No score: results from before the score" in unscored
+    assert "; 0.00" not in unscored and "Score (kachaka-v1), mean" not in unscored
