@@ -206,13 +206,27 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def _repeat_where(text: str | bytes) -> str:
+    """'line L, column C: ' of the key a JSON document repeats, or '' where it cannot be told.
+    ``json`` gives the object's pairs without their place; JSON is flow-style YAML, so the
+    YAML loader (which compares keys the same way) finds it, on this error path only."""
+    try:
+        parse_yaml(text.decode() if isinstance(text, bytes) else text, D3DWAError, "")
+    except D3DWAError as err:
+        found = str(err).partition("not valid YAML: ")[2]
+        return found.partition(": key ")[0] + ": " if ": key " in found else ""
+    except UnicodeDecodeError:
+        return ""
+    return ""
+
+
 def parse_json(text: str | bytes, error: type[D3DWAError], source: str) -> Any:
     """The content of one JSON document; ``error`` naming ``source`` when it is not JSON
     or nests deeper than the limit."""
     try:
         value = json.loads(text, object_pairs_hook=_unique_keys)
     except _DuplicateKey as err:
-        raise error(f"{source}: not valid JSON ({err})") from err
+        raise error(f"{source}: not valid JSON ({_repeat_where(text)}{err})") from err
     except RecursionError as err:
         raise error(
             f"{source}: nested more than {MAX_NESTING_DEPTH.value} levels deep "

@@ -14,7 +14,8 @@ from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.errors import CheckpointError, ConfigError, ProfileError, WorldFormatError
 from d3dwa_bullet.learning.training.config import load_train_config
 from d3dwa_bullet.loading import load_json, parse_yaml
-from d3dwa_bullet.resources import configs_dir, profiles_dir
+from d3dwa_bullet.resources import configs_dir, generators_dir, profiles_dir
+from d3dwa_bullet.world.generator_spec import load_generator
 from d3dwa_bullet.world.registry import load_world
 from randomization.profiles import load_profile
 from tests.conftest import ONE_SECOND_WORLD
@@ -134,3 +135,40 @@ def test_merge_keys_over_merged_bases_still_load():
     loaded = parse_yaml(text, ConfigError, "m.yaml")
     assert loaded == yaml.safe_load(text)
     assert loaded["p"] == {"a": 2, "z": 0} and loaded["m"] == {"a": 3, "z": 0, "b": 1}
+
+
+def _flow_with(data: dict, key: str, value: object, path: Path) -> Path:
+    """``data`` as one line of JSON (flow-style YAML) with ``key`` given again at the end."""
+    path.write_text(json.dumps(data)[:-1] + f", {json.dumps(key)}: {json.dumps(value)}}}\n")
+    return path
+
+
+@pytest.mark.parametrize(
+    ("what", "load", "error", "key", "value"),
+    [
+        ("world", load_world, WorldFormatError, "time_limit", 900),
+        ("profile", load_profile, ProfileError, "name", "other"),
+        ("generator", load_generator, WorldFormatError, "style", "other"),
+    ],
+)  # fmt: skip
+def test_every_user_yaml_refuses_a_key_repeated_on_one_line(
+    tmp_path, what, load, error, key, value
+):
+    """Worlds, noise profiles and generator specs are read by the same loader as configs."""
+    data = {
+        "world": lambda: dict(ONE_SECOND_WORLD),
+        "profile": lambda: yaml.safe_load((profiles_dir() / "real.yaml").read_text()),
+        "generator": lambda: yaml.safe_load(next(generators_dir().glob("*.yaml")).read_text()),
+    }[what]()
+    path = _flow_with(data, key, value, tmp_path / f"{what}.yaml")
+    with pytest.raises(error) as err:
+        load(path)
+    _one_line(err, path, repr(key), "line 1, column", "twice")
+
+
+def test_a_json_file_names_the_line_of_the_repeated_key(tmp_path):
+    meta = tmp_path / "meta.json"
+    meta.write_text('{"metadata": {"decision_steps": 10,\n  "decision_steps": 1}}')
+    with pytest.raises(CheckpointError) as err:
+        load_json(meta, CheckpointError)
+    _one_line(err, meta, "'decision_steps'", "line 2, column 3", "twice")
