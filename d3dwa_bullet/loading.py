@@ -5,8 +5,8 @@ profiles, training configs, checkpoint ``meta.json`` / ``config.json`` /
 ``training_state.json``, run summaries, results ``meta.json``, ``metrics.jsonl``) goes
 through :func:`load_yaml`, :func:`load_json` or :func:`load_json_lines`; text the program
 holds already goes through :func:`parse_yaml` / :func:`parse_json`. XML (Gazebo SDF worlds)
-goes through :func:`load_xml`. The caller's schema checks come after. What is refused, each with the caller's error class and one line that
-names the file:
+goes through :func:`load_xml`. The caller's schema checks come after. What is refused, each
+with the caller's error class and one line (a parser's message too) that names the file:
 
 - a file that is not a regular file (``/dev/zero``, a FIFO) or is over its size limit
   (:data:`~d3dwa_bullet.limits.MAX_DOCUMENT_BYTES`), before it is read
@@ -19,7 +19,8 @@ names the file:
   so nine lines of aliases make a billion items (the "billion laughs"). The few aliases
   ``yaml.safe_dump`` writes for a list used twice load as before;
 - a mapping that gives one key twice (YAML keeps the last silently; a JSON object likewise),
-  named with its line;
+  keys compared by value within the mapping whatever the layout (block, or flow style on one
+  line or several), named with its line and column; ``<<: *base`` may repeat a base's keys;
 - YAML tags beyond the safe ones (``!!python/object`` ...), as ``yaml.safe_load`` does.
 
 ``tests/test_loading.py`` fails if any other module calls ``yaml.safe_load``,
@@ -59,6 +60,7 @@ class _BoundedLoader(yaml.SafeLoader):
         self._depth = 0
         self._alias_nodes = 0
         self._sizes: dict[int, int] = {}  # id(node) -> nodes in it, aliases expanded
+        self._checked: set[int] = set()  # id(node) of the mappings checked for repeated keys
 
     def _size(self, node: yaml.Node) -> int:
         key = id(node)
@@ -94,29 +96,62 @@ class _BoundedLoader(yaml.SafeLoader):
         finally:
             self._depth -= nested
 
-    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> Any:
-        """The mapping, refusing a key given twice: YAML would keep the last one silently,
-        so a field repeated at the end of a config would change the run without a word."""
-        seen: dict[Any, int] = {}
+    def flatten_mapping(self, node: yaml.MappingNode) -> None:
+        """Refuse a key the mapping gives twice, then let ``<<: *base`` pull the base's keys in.
+
+        Keys are compared by value within the mapping, whatever the layout: block style, a
+        flow mapping on one line (``{a: 1, a: 2}``, JSON) or over several. Checked once per
+        node, before merging mutates it: ``<<`` may repeat a base's keys (the explicit key
+        overrides), and a base merged elsewhere already holds its own base's keys."""
+        if id(node) not in self._checked:
+            self._checked.add(id(node))
+            self._refuse_repeats(node)
+        super().flatten_mapping(node)
+
+    def _refuse_repeats(self, node: yaml.MappingNode) -> None:
+        """YAML would keep the last of two equal keys silently, so a field repeated in a
+        config would change the run without a word."""
+        seen: dict[Any, str] = {}  # key -> where it was first given
         for key_node, _ in node.value:
-            if key_node.tag == "tag:yaml.org,2002:merge":  # ``<<: *base`` may repeat keys
+            if key_node.tag == "tag:yaml.org,2002:merge":
                 continue
             key = self.construct_object(key_node, deep=True)
+            mark = key_node.start_mark
+            where = f"line {mark.line + 1}, column {mark.column + 1}"
             try:
-                first = seen.setdefault(key, key_node.start_mark.line + 1)
-            except TypeError:  # an unhashable key: the constructor below refuses it
+                first = seen.get(key)
+            except TypeError:  # an unhashable key: the constructor refuses it after
                 continue
-            if first != key_node.start_mark.line + 1:
+            if first is None:
+                seen[key] = where
+            else:
                 raise _Refused(
-                    f"line {key_node.start_mark.line + 1}: key {_shown_key(key)} is given twice "
-                    f"(first on line {first}); YAML would keep the last one silently"
+                    f"{where}: key {_shown_key(key)} is given twice in one mapping "
+                    f"(first on {first}); YAML would keep the last one silently"
                 )
-        return super().construct_mapping(node, deep=deep)
 
 
 def _shown_key(key: Any) -> str:
     text = repr(key)
     return text if len(text) <= 60 else f"{text[:57]}..."
+
+
+def yaml_problem(err: yaml.YAMLError) -> str:
+    """A parser's message on one line: where, what, and what it was inside. PyYAML's own
+    ``str`` spans several lines, with the source line and a caret under the column."""
+    if not isinstance(err, yaml.MarkedYAMLError):
+        return " ".join(str(err).split())
+    parts = []
+    if err.problem_mark is not None:
+        parts.append(f"line {err.problem_mark.line + 1}, column {err.problem_mark.column + 1}:")
+    parts.append(err.problem or "not YAML")
+    if err.context:
+        inside = f"({err.context}"
+        if err.context_mark is not None:
+            mark = err.context_mark
+            inside += f" at line {mark.line + 1}, column {mark.column + 1}"
+        parts.append(inside + ")")
+    return " ".join(" ".join(parts).split())
 
 
 def parse_yaml(text: str, error: type[D3DWAError], source: str) -> Any:
@@ -125,7 +160,7 @@ def parse_yaml(text: str, error: type[D3DWAError], source: str) -> Any:
     try:
         return loader.get_single_data()
     except yaml.YAMLError as err:
-        raise error(f"{source}: not valid YAML: {err}") from err
+        raise error(f"{source}: not valid YAML: {yaml_problem(err)}") from err
     except RecursionError as err:  # a deep nest the depth check did not reach (a scalar)
         raise error(f"{source}: not valid YAML: nested too deeply") from err
     finally:
@@ -171,13 +206,27 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def _repeat_where(text: str | bytes) -> str:
+    """'line L, column C: ' of the key a JSON document repeats, or '' where it cannot be told.
+    ``json`` gives the object's pairs without their place; JSON is flow-style YAML, so the
+    YAML loader (which compares keys the same way) finds it, on this error path only."""
+    try:
+        parse_yaml(text.decode() if isinstance(text, bytes) else text, D3DWAError, "")
+    except D3DWAError as err:
+        found = str(err).partition("not valid YAML: ")[2]
+        return found.partition(": key ")[0] + ": " if ": key " in found else ""
+    except UnicodeDecodeError:
+        return ""
+    return ""
+
+
 def parse_json(text: str | bytes, error: type[D3DWAError], source: str) -> Any:
     """The content of one JSON document; ``error`` naming ``source`` when it is not JSON
     or nests deeper than the limit."""
     try:
         value = json.loads(text, object_pairs_hook=_unique_keys)
     except _DuplicateKey as err:
-        raise error(f"{source}: not valid JSON ({err})") from err
+        raise error(f"{source}: not valid JSON ({_repeat_where(text)}{err})") from err
     except RecursionError as err:
         raise error(
             f"{source}: nested more than {MAX_NESTING_DEPTH.value} levels deep "

@@ -77,11 +77,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--lockstep", action="store_true",
         help="the robot advances one control period per command (`d3dwa serve --lockstep`): "
-        "do not pace the loop by the wall clock",
+        "do not pace the loop by the wall clock, and count a stamp's age in commands",
     )  # fmt: skip
     p.add_argument(
         "--stale", type=float, metavar="S",
-        help="refuse a scan or odometry older than S seconds (default: two control periods)",
+        help="refuse a scan or odometry older than S seconds (default: two control periods; "
+        "with --lockstep, S / control period commands)",
     )  # fmt: skip
     p.add_argument("--watchdog", type=float, default=0.5, help="stop if a step takes longer, s")
     p.add_argument("--timeout", type=float, default=0.5, help="deadline of each API call, s")

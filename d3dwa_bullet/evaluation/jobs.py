@@ -50,7 +50,6 @@ from d3dwa_bullet.evaluation.results import (
 from d3dwa_bullet.evaluation.scores import add_scores, needs_scores, score_cells
 from d3dwa_bullet.io import file_stem
 from d3dwa_bullet.loading import parse_json
-from d3dwa_bullet.method_specs import method_label
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.noise_config import NoiseConfig
 from d3dwa_bullet.world.model import World
@@ -317,8 +316,9 @@ def world_figures(
             log = load_log(log_path)
             runs.append(
                 {
-                    "label": method_label(method)
-                    + ("" if job.policy_seed is None else f" (seed-{job.policy_seed})"),
+                    # the name the results and P(A > B) tables use: twelve labels fit a grid
+                    "label": method
+                    + ("" if job.policy_seed is None else f" · seed {job.policy_seed}"),
                     "method": method,
                     "outcome": str(log["outcome"]),
                     "t": np.append(log["t"], log["t"][-1] + 0.1) if len(log["t"]) else np.zeros(1),

@@ -21,8 +21,6 @@ from d3dwa_bullet.method_specs import METHODS, method_label, reference_of  # noq
 from d3dwa_bullet.params import RECOVERY_BEHAVIOURS  # noqa: E402
 from d3dwa_bullet.world.model import Cylinder, World, obstacle_outline  # noqa: E402
 
-OUTCOME_MARK = {"goal": "reached", "collision": "C: collision", "timeout": "T: timeout"}
-
 
 def draw_world(ax: plt.Axes, world: World) -> None:
     """Obstacles (grey), start (black triangle) and goal (red star and tolerance) on ax."""
@@ -98,6 +96,41 @@ def view_bounds(world: World, runs: Sequence[dict], margin: float = 0.3) -> tupl
     return float(xmin), float(ymin), float(xmax), float(ymax)
 
 
+OUTCOME_STYLE = {
+    "goal": ("reached", "#1a9850", "o"),
+    "timeout": ("timeout", "#e08214", "s"),
+    "collision": ("collision", "#d73027", "X"),
+}
+"""outcome -> (word, colour, end-of-path marker): the panel's outcome, readable at a glance."""
+MAX_COLUMNS = 4
+"""Panels per row of a trajectory figure: twelve methods make a 4 x 3 grid whose panels keep
+about 3 inches each, and their titles room to be read."""
+
+
+def panel_grid(n: int) -> tuple[int, int]:
+    """(rows, columns) of a figure of n panels: one row up to MAX_COLUMNS, then rows of it."""
+    columns = min(max(n, 1), MAX_COLUMNS)
+    return -(-max(n, 1) // columns), columns
+
+
+def _outcome_style(outcome: str) -> tuple[str, str, str]:
+    return OUTCOME_STYLE.get(outcome, (str(outcome), "0.3", "D"))
+
+
+def _outcome_order(outcome: str) -> tuple[int, str]:
+    order = list(OUTCOME_STYLE)
+    return (order.index(outcome) if outcome in order else len(order), outcome)
+
+
+def _end_mark(outcome: str, size: float = 1.0) -> dict[str, Any]:
+    """Marker keywords of the end of a path: a ring round the goal star for a reached goal
+    (the star stays visible), a filled mark of the outcome's colour otherwise."""
+    _, colour, mark = _outcome_style(outcome)
+    if outcome == "goal":
+        return {"marker": mark, "ms": 17 * size, "mfc": "none", "mec": colour, "mew": 2.5}
+    return {"marker": mark, "ms": 11 * size, "mfc": colour, "mec": "white", "mew": 1.2}
+
+
 def trajectory_figure(
     world: World,
     runs: Sequence[dict],
@@ -105,18 +138,25 @@ def trajectory_figure(
     colour_by: str = "time",
     title: str | None = None,
 ) -> Path:
-    """One panel per run, side by side: each run is a dict with keys
-    label, outcome, t, x, y, tau (arrays, s and m), and optionally recovery (the per-step
-    log's codes: the steps a recovery behaviour drove are drawn over the path in its own
-    colour, RECOVERY_COLOURS). colour_by: "time" or "tau".
+    """One panel per run, in a grid of at most MAX_COLUMNS columns: each run is a dict with
+    keys label (short: the panel's title), outcome, t, x, y, tau (arrays, s and m), and
+    optionally recovery (the per-step log's codes: the steps a recovery behaviour drove are
+    drawn over the path in its own colour, RECOVERY_COLOURS). colour_by: "time" or "tau".
+
+    Each panel's outcome is its title's right-hand word in the outcome's colour and a mark
+    of that colour where the path ends (OUTCOME_STYLE); one legend and one colour bar serve
+    every panel, and only the outer panels carry axis labels.
     """
     n = max(1, len(runs))
+    rows, columns = panel_grid(n)
     xmin, ymin, xmax, ymax = view_bounds(world, runs)
     aspect = (ymax - ymin) / max(xmax - xmin, 1e-6)
-    width = min(4.2, 12.0 / n) if n > 3 else 4.2
+    width = 4.2 if n <= 3 else 3.2
+    height = min(max(width * aspect, 1.2), 2.5 * width)
     fig, axes = plt.subplots(
-        1, n, figsize=(width * n + 1.2, width * aspect + 1.4), squeeze=False, layout="constrained"
-    )
+        rows, columns, figsize=(width * columns + 1.4, (0.9 * height + 0.45) * rows + 1.0),
+        squeeze=False, sharex=True, sharey=True, layout="constrained",
+    )  # fmt: skip
     if colour_by == "tau":
         taus = np.concatenate([r["tau"] for r in runs if len(r["tau"])] or [np.array([2.0, 5.0])])
         norm = matplotlib.colors.Normalize(vmin=min(2.0, taus.min()), vmax=max(5.0, taus.max()))
@@ -127,32 +167,41 @@ def trajectory_figure(
         cmap, label = "plasma", "elapsed time [s]"
     lc = None
     drawn: set[str] = set()
-    for ax, run in zip(axes[0], runs, strict=False):
+    outcomes: list[str] = []
+    panels = axes.ravel()
+    for ax, run in zip(panels, runs, strict=False):
         draw_world(ax, world)
+        word, colour, mark = _outcome_style(run["outcome"])
         if len(run["x"]) > 1:
             lc = draw_path(
                 ax, run["x"], run["y"], run["tau"] if colour_by == "tau" else run["t"], norm, cmap
             )
             drawn |= draw_recoveries(ax, run["x"], run["y"], run.get("recovery"))
+        if len(run["x"]):
+            ax.plot(run["x"][-1], run["y"][-1], ls="", zorder=6, **_end_mark(run["outcome"]))
+        outcomes.append(run["outcome"])
         ax.set_xlim(xmin, xmax)
         ax.set_ylim(ymin, ymax)
-        ax.set_title(
-            f"{run['label']}\n{OUTCOME_MARK.get(run['outcome'], run['outcome'])}", fontsize=9
-        )
-    for ax in axes[0][1:]:  # one y label: the neighbours' would overlap the panel beside them
-        ax.set_ylabel("")
-    axes[0][0].legend(
+        ax.set_title(run["label"], loc="left", fontsize=9)
+        ax.set_title(word, loc="right", fontsize=9, color=colour, fontweight="bold")
+    for ax in panels[len(runs) :]:  # the grid's spare cells
+        ax.set_axis_off()
+    for ax in panels:  # one x label per column, one y label per row
+        ax.label_outer()
+    fig.legend(
         handles=[
             Line2D([], [], marker=(3, 0, -90), color="k", ls="", label="start"),
             Line2D([], [], marker="*", color="red", ms=10, ls="", label="goal"),
             Patch(color="0.55", label="obstacle"),
+            *(Line2D([], [], ls="", label=f"end: {_outcome_style(o)[0]}", **_end_mark(o, 0.7))
+              for o in sorted(set(outcomes), key=_outcome_order)),
             *(Line2D([], [], color=RECOVERY_COLOURS[b], lw=4, label=f"recovery: {b}")
               for b in RECOVERY_BEHAVIOURS if b in drawn),
         ],
-        loc="best", fontsize=7, framealpha=0.8,
+        loc="outside lower center", ncol=8, fontsize=8, frameon=False,
     )  # fmt: skip
     if lc is not None:
-        fig.colorbar(lc, ax=axes[0].tolist(), label=label, shrink=0.85)
+        fig.colorbar(lc, ax=axes.ravel().tolist(), label=label, shrink=0.85 / rows**0.5)
     fig.suptitle(title or f"{world.name}: {world.description}", fontsize=10)
     return _save(fig, path)
 
@@ -162,6 +211,9 @@ REFERENCE_COLOURS = {"random": (0.45, 0.45, 0.45, 1.0), "random-weights": (0.72,
 darker grey than its every-step draw)."""
 HELD_DARKER = 0.2
 _COLOURED = tuple(m for m in METHODS if reference_of(m) is None)
+CONTENDER_SLOTS = (0, 1, 2, 3, 4, 5, 6, 8, 9)
+"""The tab10 colours a contender may take: all but its grey (slot 7), which the eighth
+contender took beside the reference methods' greys once the method list grew."""
 
 
 def _reference_colour(method: str) -> tuple | None:
@@ -177,9 +229,10 @@ def method_colours(methods: Sequence[str]) -> dict[str, tuple]:
     """A stable colour per method name: a reference method grey, every other one its slot
     in the order of d3dwa_bullet.method_specs.METHODS (reference methods left out, so adding one
     changes no other method's colour)."""
-    cmap = plt.get_cmap("tab10")
+    palette = [plt.get_cmap("tab10")(k) for k in CONTENDER_SLOTS]
+    n = len(palette)
     return {
-        m: _reference_colour(m) or cmap(_COLOURED.index(m) % 10 if m in _COLOURED else i % 10)
+        m: _reference_colour(m) or palette[_COLOURED.index(m) % n if m in _COLOURED else i % n]
         for i, m in enumerate(methods)
     }
 
@@ -191,6 +244,10 @@ def _save(fig: plt.Figure, path: str | os.PathLike[str]) -> Path:
         return atomic_savefig(fig, out, dpi=110, bbox_inches="tight")
     finally:
         plt.close(fig)
+
+
+LEGEND_COLUMNS = 4
+"""Columns of a sweep figure's legend (below the panels)."""
 
 
 def sweep_figure(
@@ -212,9 +269,11 @@ def sweep_figure(
     methods = list(dict.fromkeys(m for per in series.values() for m in per))
     colours = method_colours(methods)
     crowded = len(methods) > 3  # count labels wider than their bars: set upright
+    legend_rows = -(-len(methods) // LEGEND_COLUMNS)
     fig, axes = plt.subplots(
-        2, len(layouts), figsize=(5.6 * len(layouts) + 0.6, 7.2), squeeze=False, sharex="col"
-    )
+        2, len(layouts), figsize=(5.6 * len(layouts) + 0.6, 7.2 + 0.22 * legend_rows),
+        squeeze=False, sharex="col", layout="constrained",
+    )  # fmt: skip
     any_time = [False] * len(layouts)
     for col, layout in enumerate(layouts):
         per_method = series[layout]
@@ -283,8 +342,8 @@ def sweep_figure(
         for ax in (top, bottom):
             ax.grid(True, alpha=0.3)
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=min(4, len(labels)), fontsize=9,
-               bbox_to_anchor=(0.5, -0.01))  # fmt: skip
+    # outside the axes, in room the layout keeps for it: twelve methods take three rows
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(LEGEND_COLUMNS, len(labels)),
+               fontsize=9)  # fmt: skip
     fig.suptitle(title, fontsize=11)
-    fig.tight_layout(rect=(0, 0.05, 1, 1))
     return _save(fig, path)

@@ -57,7 +57,9 @@ class DriveSettings:
     limits: SpeedLimits = SpeedLimits()
     """Every command is clamped to these (default: the Kachaka API's)."""
     stale_s: float | None = None
-    """A reading older than this is refused, s (None: two control periods)."""
+    """A reading older than this is refused, s (None: two control periods). In lockstep a
+    stamp unchanged over more than stale_s / control period commands is stale (the wall is
+    not the robot's clock there); see ``safety.Freshness``."""
     watchdog_s: float = 0.5
     """The watchdog stops the robot when a loop iteration takes longer than this, s."""
     lockstep: bool = False
@@ -221,7 +223,8 @@ def _loop(
     mount = config.lidar.mount
     goal = np.asarray(settings.goal, dtype=np.float64)
     max_steps = int(round(settings.time_limit * config.sim.control_hz))
-    fresh = Freshness(settings.stale_s if settings.stale_s is not None else 2 * period)
+    stale_s = settings.stale_s if settings.stale_s is not None else 2 * period
+    fresh = Freshness(stale_s, period if settings.lockstep else None)
     link.check_version()
     first = link.read()
     check_scan_layout(first.scan, mount, config)
@@ -240,7 +243,9 @@ def _loop(
         if reading is None:
             reading = link.read()
         stamps = {"scan": reading.scan.stamp_ns, "odometry": reading.odometry.stamp_ns}
-        fresh.check(stamps, time.monotonic(), link.address)
+        # lockstep: the robot's time is the commands sent, whatever the wall says
+        now = out.steps if settings.lockstep else time.monotonic()
+        fresh.check(stamps, now, link.address)
         odometry.check(reading, link.address)
         blind = contract.check(reading.scan)
         pose = reading.odometry.pose

@@ -52,22 +52,36 @@ class SpeedLimits:
 class Freshness:
     """Refuses readings older than ``limit_s`` (two control periods by default).
 
-    A stream is stale when its stamp has not advanced for ``limit_s`` of this machine's
-    monotonic clock, or when it lags the newest stream by more than ``limit_s`` on the
-    robot's own clock (one stream stopped while another runs). The robot's clock is never
-    compared with this machine's: they need not be synchronised, and a lockstep simulator's
-    clock does not follow the wall at all.
+    A stream is stale when its stamp has not advanced for ``limit_s``, or when it lags the
+    newest stream by more than ``limit_s`` on the robot's own clock (one stream stopped while
+    another runs). "Has not advanced for" is counted on the loop's clock, ``now``:
+
+    - realtime (``period_s`` None): this machine's monotonic clock, s;
+    - lockstep (``period_s``: the control period, s): the control periods the robot has been
+      advanced, i.e. the commands sent. Every command steps a lockstep robot one period, and
+      every stream must advance with it; the wall says nothing there (a lockstep step takes a
+      few ms on a fast machine, so 0.2 s of wall would pass only after a hundred frozen
+      stamps, and sooner on a slow one). A stamp unchanged over more than
+      ``limit_s / period_s`` periods (2 by default: stopped at the third) is stale.
+
+    The robot's clock is never compared with this machine's: they need not be synchronised,
+    and a lockstep simulator's clock does not follow the wall at all.
     """
 
-    def __init__(self, limit_s: float) -> None:
+    def __init__(self, limit_s: float, period_s: float | None = None) -> None:
         if not (math.isfinite(limit_s) and limit_s > 0):
             raise ConfigError(f"staleness limit must be a number of seconds > 0, got {limit_s!r}")
+        if period_s is not None and not (math.isfinite(period_s) and period_s > 0):
+            raise ConfigError(f"control period must be a number of seconds > 0, got {period_s!r}")
         self.limit_s = limit_s
-        self._last: dict[str, tuple[int, float]] = {}  # stream -> (stamp ns, when it changed)
+        self.limit_periods = None if period_s is None else round(limit_s / period_s, 9)
+        """Lockstep: control periods a stamp may stay unchanged (None: realtime)."""
+        self._last: dict[str, tuple[int, float]] = {}  # stream -> (stamp ns, now when it changed)
 
     def check(self, stamps: dict[str, int], now: float, where: str) -> None:
-        """stamps: stream name -> its stamp (int ns, robot clock); now: monotonic s.
-        RobotLinkError naming the stream if one is stale."""
+        """stamps: stream name -> its stamp (int ns, robot clock); now: monotonic s in
+        realtime, control periods advanced (commands sent) in lockstep. RobotLinkError naming
+        the stream if one is stale."""
         newest_name = max(stamps, key=stamps.__getitem__)
         newest = stamps[newest_name]
         for name, stamp in stamps.items():
@@ -76,18 +90,29 @@ class Freshness:
                 raise RobotLinkError(
                     f"{where}: the {name} stamp went back in time ({stamp} < {last[0]} ns)"
                 )
-            if last is None or stamp != last[0]:
-                self._last[name] = (stamp, now)
-            elif now - last[1] > self.limit_s:
-                raise RobotLinkError(
-                    f"{where}: stale {name}: its stamp has not changed for "
-                    f"{now - last[1]:.2f} s (limit {self.limit_s:g} s)"
-                )
-            if newest - stamp > self.limit_s * 1e9:
+            if newest - stamp > self.limit_s * 1e9:  # first: it names the stream still running
                 raise RobotLinkError(
                     f"{where}: stale {name}: {(newest - stamp) / 1e9:.2f} s older than the "
                     f"{newest_name} (limit {self.limit_s:g} s)"
                 )
+            if last is None or stamp != last[0]:
+                self._last[name] = (stamp, now)
+            else:
+                self._check_unchanged(name, now - last[1], where)
+
+    def _check_unchanged(self, name: str, unchanged: float, where: str) -> None:
+        if self.limit_periods is None:
+            if unchanged > self.limit_s:
+                raise RobotLinkError(
+                    f"{where}: stale {name}: its stamp has not changed for "
+                    f"{unchanged:.2f} s (limit {self.limit_s:g} s)"
+                )
+        elif unchanged > self.limit_periods:
+            raise RobotLinkError(
+                f"{where}: stale {name}: its stamp has not changed over {unchanged:g} control "
+                f"periods in lockstep, where each command advances the robot one (limit "
+                f"{self.limit_periods:g}, {self.limit_s:g} s)"
+            )
 
 
 MIN_READING_FRACTION = 0.5

@@ -39,6 +39,23 @@ class FrozenScan(SimulatedKachaka):
         return super().GetRosLaserScan(request, context)
 
 
+class FrozenStamps(SimulatedKachaka):
+    """A robot whose scan and odometry stop updating (stamps and all) after ``freeze_after``
+    snapshots, while it still moves: both streams stop together, so neither lags the other
+    and only their age can tell."""
+
+    freeze_after = 5
+
+    def _snapshot(self) -> None:
+        super()._snapshot()
+        with self._cond:
+            messages = self._published[0]
+            if self.cursor > self.freeze_after:
+                messages["scan"], messages["odometry"] = self._frozen
+            else:
+                self._frozen = messages["scan"], messages["odometry"]
+
+
 def run_drive(address: str, result: DriveResult, **settings) -> DriveResult:
     link = KachakaLink(address, timeout=30)
     pipeline = ReplayPipeline(make_controller("dwa3"))
@@ -59,6 +76,30 @@ def test_a_stale_scan_stops_the_robot(serve):
         run_drive(address, result)
     # the scan freezes at the 5th snapshot: 0.1 and 0.2 s behind pass, 0.3 s does not
     assert result.steps == 7 and result.stopped
+    assert sim.requests[-1][:2] == (0.0, 0.0)
+
+
+def test_lockstep_stamps_that_freeze_stop_the_robot_within_three_periods(serve):
+    """Lockstep counts a stamp's age in commands, not on the wall: the loop runs a step in a
+    few ms, so 0.2 s of wall would have taken a hundred frozen readings (issue 58, class 4).
+    However slow or fast this machine is, the third command on frozen stamps is not sent."""
+    sim, address = serve(load_world("R1"), kind=FrozenStamps, mode="lockstep")
+    result = DriveResult()
+    with pytest.raises(RobotLinkError, match=r"stale (scan|odometry): .* over 3 control periods"):
+        run_drive(address, result)
+    # snapshot k answers the read after command k - 1; from the 6th the stamps are the 5th's
+    frozen_from = FrozenStamps.freeze_after  # commands sent when the first frozen one is read
+    assert result.steps - frozen_from <= 3 and result.steps == frozen_from + 2
+    assert result.stopped and sim.requests[-1][:2] == (0.0, 0.0)
+
+
+def test_the_cli_names_the_frozen_stream_in_one_line_in_lockstep(capsys, serve):
+    sim, address = serve(load_world("R1"), kind=FrozenStamps, mode="lockstep")
+    line = refused(
+        capsys, "drive", "--kachaka", address, "--goal", "3,0", "--method", "dwa3",
+        "--lockstep", "--watchdog", "60", "--timeout", "30",
+    )  # fmt: skip
+    assert "stale scan" in line and "control periods" in line, line
     assert sim.requests[-1][:2] == (0.0, 0.0)
 
 

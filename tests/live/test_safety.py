@@ -44,6 +44,53 @@ def test_a_stamp_that_stops_advancing_turns_stale():
         fresh.check({"scan": 200 * MS, "odometry": 300 * MS}, now=0.55, where="robot")
 
 
+def test_in_realtime_a_frozen_stamp_is_judged_by_the_wall_not_by_how_often_it_is_read():
+    """A realtime loop may read one snapshot many times within a period: only the injected
+    wall clock decides."""
+    fresh = Freshness(0.2)
+    for k in range(100):  # a hundred reads within 0.19 s of wall: fresh
+        fresh.check({"scan": 100 * MS, "odometry": 100 * MS}, now=k * 0.0019, where="robot")
+    with pytest.raises(RobotLinkError, match="stale scan: its stamp has not changed for 0.21 s"):
+        fresh.check({"scan": 100 * MS, "odometry": 100 * MS}, now=0.21, where="robot")
+
+
+@pytest.mark.parametrize("stale_s", [None, 0.25])
+def test_in_lockstep_a_frozen_stamp_is_judged_by_control_periods_not_by_the_wall(stale_s):
+    """Lockstep: ``now`` counts the commands sent, each advancing the robot one period; a
+    stamp unchanged over more than stale_s / period of them (2 by default) is stale, at the
+    third, however little wall time passed (issue 58, class 4)."""
+    period = 0.1
+    fresh = Freshness(stale_s or 2 * period, period_s=period)
+    for step in range(4):  # stamps advance with the commands
+        fresh.check({"scan": step * 100 * MS, "odometry": step * 100 * MS}, step, "robot")
+    frozen = {"scan": 300 * MS, "odometry": 300 * MS}
+    for step in (4, 5):  # one and two periods without a change: within the limit
+        fresh.check(frozen, step, "robot")
+    with pytest.raises(
+        RobotLinkError, match=r"stale scan: its stamp has not changed over 3 control periods"
+    ):
+        fresh.check(frozen, 6, "robot")
+
+
+def test_in_lockstep_the_stream_that_stops_is_named():
+    fresh = Freshness(0.2, period_s=0.1)
+    for step in range(3):
+        fresh.check({"scan": 0, "odometry": step * 100 * MS}, step, "robot")
+    with pytest.raises(RobotLinkError, match="stale scan"):  # the lag on the robot's clock
+        fresh.check({"scan": 0, "odometry": 300 * MS}, 3, "robot")
+    fresh = Freshness(0.2, period_s=0.1)
+    for step in range(3):
+        fresh.check({"odometry": 500 * MS}, step, "robot")  # a single stream: no lag to see
+    with pytest.raises(RobotLinkError, match="stale odometry: .* over 3 control periods"):
+        fresh.check({"odometry": 500 * MS}, 3, "robot")
+
+
+@pytest.mark.parametrize("period", [0.0, -0.1, math.nan])
+def test_a_lockstep_period_must_be_positive(period):
+    with pytest.raises(ConfigError, match="control period"):
+        Freshness(0.2, period_s=period)
+
+
 def test_a_stream_lagging_the_scan_is_stale():
     fresh = Freshness(0.2)
     fresh.check({"scan": 500 * MS, "odometry": 400 * MS}, now=0.0, where="robot")

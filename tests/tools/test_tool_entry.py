@@ -81,3 +81,21 @@ def test_a_non_numeric_period_without_a_meta_json_is_one_line_too(tmp_path, caps
     (folder / "config.json").write_text(json.dumps({"decision_steps": "ten"}))
     assert shipped_seeds.main(["--policies", str(tmp_path)]) == 2
     _one_line(capsys, "shipped_seeds", str(folder / "config.json"), "decision_steps", "'ten'")
+
+
+CUT_WORLD = "name: cut\nbounds: [0, 0, 4, 4]\nobstacles:\n  - {type: box, centre: [1, 1"
+
+
+@pytest.mark.parametrize(
+    ("module", "argv"),
+    [("tools.experiments.check_worlds", []), ("tools.experiments.probe_route", [])],
+)
+def test_a_world_file_cut_mid_way_is_one_line_without_a_caret(module, argv, tmp_path, capsys):
+    """PyYAML's message spans lines (the source line, a caret); the loader makes it one, and a
+    tool's own refusal is ``<tool>: error: ...`` like any other (issue 58, class 3)."""
+    path = tmp_path / "cut.yaml"
+    path.write_text(CUT_WORLD)
+    tool = module.rpartition(".")[2]
+    assert importlib.import_module(module).main([str(path), *argv]) == 2
+    err = _one_line(capsys, tool, str(path), "not valid YAML", "line 4, column")
+    assert "^" not in err

@@ -82,3 +82,46 @@ def test_validation_reads_each_seeds_own_eval_worlds(tmp_path: Path) -> None:
     (seed / "config.json").write_text(json.dumps(config))
     result = value_check.check(tmp_path, worlds=(value_check.VALIDATION,))
     assert list(result["seeds"][0]["outcomes"]) == ["TS2"]
+
+
+def _own_copy(tmp_path: Path, **config: object) -> Path:
+    """A copy of a shipped policy whose config.json has ``config`` set."""
+    import json
+
+    seed = tmp_path / "seed-0"
+    shutil.copytree(policies_dir() / "d3dwa" / "seed-0", seed)
+    data = json.loads((seed / "config.json").read_text())
+    (seed / "config.json").write_text(json.dumps({**data, **config}, indent=1))
+    return seed
+
+
+def test_a_config_cut_mid_way_is_one_line_without_a_caret(tmp_path: Path, capsys) -> None:
+    """The parser's multi-line message (source line, caret) used to end the tool's output
+    (issue 58, class 3): one line now, naming the file and where it stops."""
+    seed = _own_copy(tmp_path)
+    text = (seed / "config.json").read_text()
+    (seed / "config.json").write_text(text[: len(text) // 2])
+    assert value_check.main([str(seed)]) == 2
+    captured = capsys.readouterr()
+    err = captured.err
+    assert err.count("\n") == 1 and err.startswith("value_check: error: "), err
+    assert str(seed / "config.json") in err and "line " in err and "^" not in err, err
+    assert captured.out == ""
+
+
+def test_validation_with_no_eval_worlds_refuses_before_any_progress(tmp_path: Path, capsys) -> None:
+    """No 'N greedy episodes' line before the error: progress only once the run goes ahead."""
+    seed = _own_copy(tmp_path, eval_worlds=[], eval_every=0)
+    assert value_check.main([str(tmp_path), "--worlds", value_check.VALIDATION]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("value_check: error: "), err
+    assert str(seed / "config.json") in err and "eval_worlds" in err, err
+
+
+def test_validation_with_an_unknown_eval_world_refuses_before_any_progress(
+    tmp_path: Path, capsys
+) -> None:
+    _own_copy(tmp_path, eval_worlds=["NOWHERE"])
+    assert value_check.main([str(tmp_path), "--worlds", value_check.VALIDATION]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "NOWHERE" in err, err

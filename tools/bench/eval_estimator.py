@@ -29,7 +29,7 @@ from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult
 from d3dwa_bullet.world.registry import load_world
-from tools.entry import ToolParser, tool_main
+from tools.entry import ToolParser, fail, tool_main
 
 #: The issue-3 target: EKF position RMSE at most this fraction of raw odometry's.
 TARGET_RATIO = 0.5
@@ -186,8 +186,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             args.time_limit,
         )
     except D3DWAError as err:
-        print(f"eval_estimator: error: {err}", file=sys.stderr)
-        return 2
+        fail("eval_estimator", str(err))
     if args.json:
         print(json.dumps(out))
         return 0

@@ -27,7 +27,7 @@ from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.reachability import footprint_reachable
 from d3dwa_bullet.world.registry import list_worlds, load_world_file
 from d3dwa_bullet.world.routes import REFERENCE_PATH_LENGTHS, shortest_path
-from tools.entry import ToolParser, tool_main
+from tools.entry import ToolParser, fail, tool_main
 
 
 def check_world(
@@ -110,8 +110,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.start or args.goal:
             worlds = [w.with_task(start=args.start, goal=args.goal) for w in worlds]
     except D3DWAError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+        fail("check_worlds", str(err))
     rows = [check_world(w, args.resolution, args.inflation, args.footprint) for w in worlds]
     print(json.dumps(rows, indent=2) if args.json else format_table(rows))
     return 1 if any(r["path"] is None for r in rows) else 0

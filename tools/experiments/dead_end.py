@@ -23,7 +23,7 @@ import numpy as np
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.learning.agents.policy import all_q_values, greedy_policy
 from d3dwa_bullet.learning.training.config import make_env
-from tools.entry import ToolParser, tool_main
+from tools.entry import ToolParser, fail, tool_main
 from tools.experiments.value_check import load
 
 MOVED = 0.1
@@ -112,8 +112,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         result = branches(args.policy, args.world, args.at, args.hold, args.then, actions)
     except (D3DWAError, OSError) as err:
-        print(f"dead_end: error: {err}", file=sys.stderr)
-        return 2
+        fail("dead_end", str(err))
     print(json.dumps(result, indent=1) if args.json else describe(result))
     return 0
 

@@ -16,7 +16,6 @@ methods.
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +27,7 @@ from d3dwa_bullet.learning.training.config import TrainConfig
 from d3dwa_bullet.learning.value_calibration import ValueCalibration
 from d3dwa_bullet.loading import load_yaml, parse_yaml
 from d3dwa_bullet.seed_dirs import seed_dirs
-from tools.entry import ToolParser, tool_main
+from tools.entry import ToolParser, fail, tool_main
 
 
 def parse_set(items: list[str]) -> dict[str, Any]:
@@ -190,8 +189,7 @@ def main(argv: list[str] | None = None) -> int:
             train(None if resume else config, run, resume=resume, progress=True)
         print(describe(summarise([args.out])))
     except (D3DWAError, ValueError) as err:
-        print(f"learner_ablation: error: {err}", file=sys.stderr)
-        return 2
+        fail("learner_ablation", str(err))
     return 0
 
 

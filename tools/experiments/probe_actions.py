@@ -27,7 +27,7 @@ from d3dwa_bullet.backends import run_local
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
 from d3dwa_bullet.world.registry import list_worlds, load_world
-from tools.entry import ToolParser, tool_main
+from tools.entry import ToolParser, fail, tool_main
 from tools.experiments.oracle import ORACLE, fixed_action_outcome, run_oracle
 
 ACTION_SETS = {"full": ACTIONS_FULL, "weights": ACTIONS_WEIGHTS_ONLY}
@@ -135,8 +135,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         for w in worlds:
             load_world(w)
     except D3DWAError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+        fail("probe_actions", str(err))
     rows = probe(worlds, args.actions, not args.no_fixed, args.seed, args.workers,
                  progress=not args.json)  # fmt: skip
     print(json.dumps(rows, indent=2) if args.json else format_table(rows))

@@ -29,7 +29,7 @@ from d3dwa_bullet.method_specs import check_method, needs_policy
 from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.registry import load_world
 from d3dwa_bullet.world.route_start import route_polyline, route_pose
-from tools.entry import ToolParser, tool_main
+from tools.entry import ToolParser, fail, tool_main
 
 DEFAULT_FRACTIONS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
 
@@ -115,8 +115,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             # a bad policy path fails here, not in a worker
             make_controller(m, None if not needs_policy(m) else args.policy)
     except D3DWAError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+        fail("probe_route", str(err))
     rows = probe(world, methods, fractions, args.policy, args.seed, args.workers)
     print(json.dumps(rows, indent=2) if args.json else format_table(world, methods, rows))
     return 0

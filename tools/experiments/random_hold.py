@@ -33,7 +33,7 @@ from d3dwa_bullet.method_specs import HOLD_MARK, REFERENCE, check_method
 from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
 from d3dwa_bullet.world.registry import load_world
-from tools.entry import ToolParser, tool_main
+from tools.entry import ToolParser, fail, tool_main
 
 STYLES = ("R1-style", "R2-style", "R3-style")
 
@@ -71,8 +71,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         config = replace(EpisodeConfig(), recovery=recovery_params(args.recovery))
     except ConfigError as err:
-        print(f"random_hold: error: --recovery: {err}", file=sys.stderr)
-        return 2
+        fail("random_hold", f"--recovery: {err}")
     if args.reference not in REFERENCE:
         print(
             f"random_hold: error: --reference {args.reference!r}: choose one of "
@@ -84,14 +83,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         check_method(method)  # the registry judges the decision period (0, -1, 1.5, 101, ...)
     except D3DWAError as err:
-        print(f"random_hold: error: --hold {args.hold}: {err}", file=sys.stderr)
-        return 2
+        fail("random_hold", f"--hold {args.hold}: {err}")
     hold = int(args.hold)
     try:
         make_noise(args.noise, 0)
     except D3DWAError as err:
-        print(f"random_hold: error: --noise {args.noise!r}: {err}", file=sys.stderr)
-        return 2
+        fail("random_hold", f"--noise {args.noise!r}: {err}")
     worlds = layouts()
     goals = {}
     for seed in seeds:

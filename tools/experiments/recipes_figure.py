@@ -14,7 +14,6 @@ or the bars would not be comparable: a profile where they differ is refused, nam
 from __future__ import annotations
 
 import json
-import sys
 from collections import defaultdict
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -24,7 +23,7 @@ from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.results import job_rows
 from d3dwa_bullet.evaluation.sweep import profile_of
 from d3dwa_bullet.io import atomic_savefig
-from tools.entry import ToolParser, tool_main
+from tools.entry import ToolParser, fail, tool_main
 from tools.experiments.headroom import success
 
 PROFILE_ORDER = ("none", "paper", "real", "harsh")
@@ -120,13 +119,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--json", action="store_true", help="print the bars' numbers as JSON")
     args = parser.parse_args(argv)
     if args.out.suffix.lower() != ".png":
-        print(f"recipes_figure: --out {args.out} must end in .png", file=sys.stderr)
-        return 2
+        fail("recipes_figure", f"--out {args.out} must end in .png")
     try:
         data = collect([parse_entry(e) for e in args.entries])
     except D3DWAError as exc:
-        print(f"recipes_figure: {exc}", file=sys.stderr)
-        return 2
+        fail("recipes_figure", str(exc))
     draw(data, args.out, args.title)
     if args.json:
         print(json.dumps(data, indent=1))

@@ -14,7 +14,6 @@ Wilson 95 % interval. 0.5 is chance.
 from __future__ import annotations
 
 import json
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -26,7 +25,7 @@ from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.jobs import row_log
 from d3dwa_bullet.evaluation.results import job_rows
 from d3dwa_bullet.evaluation.stats import wilson_interval
-from tools.entry import ToolParser, tool_main
+from tools.entry import ToolParser, fail, tool_main
 
 EPOCHS = 60
 HIDDEN = 64
@@ -108,9 +107,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     labels = args.labels.split(",")
     if len(labels) != 2 or not 2 <= args.history <= 100 or not 1 <= args.stride <= 100:
-        print("regime_probe: --labels takes two labels, --history 2-100, --stride 1-100",
-              file=sys.stderr)  # fmt: skip
-        return 2
+        fail("regime_probe", "--labels takes two labels, --history 2-100, --stride 1-100")
     torch.set_num_threads(1)
     try:
         data = dataset(args.sweep, labels, args.history, args.stride)
@@ -118,8 +115,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         report = {"one step": accuracy(data, width),
                   f"{args.history} steps": accuracy(data, width * args.history)}  # fmt: skip
     except D3DWAError as exc:
-        print(f"regime_probe: {exc}", file=sys.stderr)
-        return 2
+        fail("regime_probe", str(exc))
     if args.json:
         print(json.dumps(report, indent=1))
     else:

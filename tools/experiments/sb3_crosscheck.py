@@ -59,7 +59,7 @@ from d3dwa_bullet.learning.training.config import (
 )
 from d3dwa_bullet.learning.value_calibration import calibrate
 from d3dwa_bullet.resources import configs_dir
-from tools.entry import ToolParser, tool_main
+from tools.entry import ToolParser, fail, tool_main
 
 DEFAULT_CONFIG = "d3dwa.yaml"
 """The shipped training config whose env and agent block are mirrored (in configs/)."""
@@ -254,8 +254,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         config = _config(args)
     except D3DWAError as err:
-        print(f"sb3_crosscheck: error: {err}", file=sys.stderr)
-        return 2
+        fail("sb3_crosscheck", str(err))
     result = crosscheck(config, args.steps, args.seed)
     if args.json:
         print(json.dumps(result))

@@ -19,7 +19,6 @@ planned steps.
 from __future__ import annotations
 
 import json
-import sys
 from collections import defaultdict
 from collections.abc import Sequence
 from dataclasses import replace
@@ -42,7 +41,7 @@ from d3dwa_bullet.planning.actions import PlannerAction
 from d3dwa_bullet.planning.planner import PlanResult
 from d3dwa_bullet.world.generator import generate_world
 from d3dwa_bullet.world.registry import load_world
-from tools.entry import ToolParser, tool_main
+from tools.entry import ToolParser, fail, tool_main
 
 PHANTOM_M = 0.10
 STORM_STEPS = 5
@@ -169,8 +168,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         seeds = {int(s) for s in args.policy_seeds.split(",")}
     except ValueError:
-        print(f"storm_steps: --policy-seeds {args.policy_seeds!r}: not integers", file=sys.stderr)
-        return 2
+        fail("storm_steps", f"--policy-seeds {args.policy_seeds!r}: not integers")
     try:
         meta = read_meta(args.sweep)
         config = episode_config(args.sweep, meta)
@@ -191,8 +189,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 [steps_of(r, config, policies[r["policy_seed"]]) for r in mine]
             )
     except D3DWAError as exc:
-        print(f"storm_steps: {exc}", file=sys.stderr)
-        return 2
+        fail("storm_steps", str(exc))
     print(json.dumps(report, indent=1))
     return 0
 

@@ -30,7 +30,7 @@ from typing import Any, cast
 import numpy as np
 from gymnasium.spaces import Discrete
 
-from d3dwa_bullet.errors import D3DWAError
+from d3dwa_bullet.errors import ConfigError, D3DWAError
 from d3dwa_bullet.learning.agents.checkpoint import META_FILE, load_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
@@ -47,7 +47,7 @@ from d3dwa_bullet.learning.training.greedy_eval import GreedyEpisode, greedy_epi
 from d3dwa_bullet.learning.value_calibration import calibrate, calibrate_by_outcome
 from d3dwa_bullet.seed_dirs import seed_dirs
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
-from tools.entry import ToolParser, tool_main
+from tools.entry import ToolParser, fail, tool_main
 
 LAYOUT_SEED = UNSEEN_LAYOUT_SEED_BASE + 1000
 WORLDS = ("R1", "R2", "R3", *(f"{s}-style-s{LAYOUT_SEED}" for s in ("R1", "R2", "R3")))
@@ -110,16 +110,34 @@ def episodes_of(
         env.close()
 
 
+def episode_worlds(folder: Path, config: Any, worlds: tuple[str, ...]) -> tuple[str, ...]:
+    """The worlds one policy's episodes run on: ``worlds``, or for ``--worlds validation`` its
+    config's eval_worlds, each resolved (ConfigError / WorldFormatError before any episode)."""
+    if worlds != (VALIDATION,):
+        return worlds
+    source = f"{folder / 'config.json'}: eval_worlds"
+    where = tuple(config.eval_worlds)
+    if not where:
+        raise ConfigError(
+            f"{source} is empty, so --worlds {VALIDATION} has no world to run; name the worlds "
+            "with --worlds"
+        )
+    for world in where:
+        resolve_world(world, allow_eval_worlds=True, where=source)
+    return where
+
+
 def check(path: Path, epsilon: float = 0.0, worlds: tuple[str, ...] = WORLDS) -> dict[str, Any]:
     """Every figure of the module docstring for one policy directory (``epsilon`` > 0: the
     episodes act epsilon-greedily instead, a diagnostic of whose returns the values follow;
     ``worlds``: other worlds than R1-R3 and three fresh layouts, e.g. the training worlds)."""
-    agents = {label: load(p) for label, p in policy_dirs(path).items()}
+    folders = policy_dirs(path)
+    agents = {label: load(p) for label, p in folders.items()}
+    plan = {label: episode_worlds(folders[label], c, worlds) for label, (_, c) in agents.items()}
     seeds, states = [], []
-    for label, (agent, config) in agents.items():
-        where = tuple(config.eval_worlds) if worlds == (VALIDATION,) else worlds
-        print(f"value_check: {label}: {len(where)} greedy episodes", file=sys.stderr)
-        eps = episodes_of(agent, config, epsilon, where)
+    for label, (agent, config) in agents.items():  # every check passed: progress from here
+        print(f"value_check: {label}: {len(plan[label])} greedy episodes", file=sys.stderr)
+        eps = episodes_of(agent, config, epsilon, plan[label])
         gamma = agent.config.gamma
         q_taken = [taken_q_values(agent, e.obs, e.actions) for e in eps]
         rewards = [e.rewards for e in eps]
@@ -265,8 +283,7 @@ def main(argv: list[str] | None = None) -> int:
             resolve_world(world, allow_eval_worlds=True, where="--worlds")
         result = check(args.directory, args.epsilon, worlds)
     except (D3DWAError, OSError) as err:
-        print(f"value_check: error: {err}", file=sys.stderr)
-        return 2
+        fail("value_check", str(err))
     if args.json:
         print(json.dumps(result, indent=1))
     else:
