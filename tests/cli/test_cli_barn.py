@@ -10,6 +10,7 @@ import pytest
 
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.evaluation.barn_tables import barn_section
+from d3dwa_bullet.evaluation.sweep import given_group
 from d3dwa_bullet.world import barn
 from d3dwa_bullet.world.barn_difficulty import barn_tercile
 
@@ -86,3 +87,19 @@ def test_barn_section_has_rows_per_split_and_tercile():
     assert lines[0].endswith("| 100 [100, 100] |")  # BARN-0 (challenge) reached its goal
     assert "R1" not in page
     assert barn_section([_row("R1", "dwa3", 0, "goal")], ["dwa3"], ["none"], lambda r: "none") == ""
+
+
+def test_sweep_groups_barn_worlds_by_tercile_and_runs_no_generated_layouts(tmp_path, capsys):
+    out = tmp_path / "sweep"
+    argv = ["sweep", "--suite", "barn", "--world-ids", "6", "--methods", "dwa3", "--seeds", "1",
+            "--axes", "", "--profiles", "none", "--time-limit", "2", "--workers", "1",
+            "--out", str(out), "--json"]  # fmt: skip
+    assert main(argv) == 0
+    with (out / "results.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert [(r["world"], r["layout"]) for r in rows] == [("BARN-6", f"barn-{barn_tercile(6)}")]
+    assert (
+        f"*barn-{barn_tercile(6)}* = BARN {barn_tercile(6)} tercile: BARN-6"
+        in (out / "sweep.md").read_text()
+    )
+    assert given_group("R1") == "shipped" and given_group("R2-style-s17") == "given"
