@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from d3dwa_bullet.errors import WorldFormatError
+from d3dwa_bullet.errors import ConfigError, WorldFormatError
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.world.barn import (
     BARN_WORLDS,
@@ -48,8 +48,13 @@ REPO_URL = "https://github.com/Daffan/the-barn-challenge"
 
 
 def git(repo: Path, *args: str) -> bytes:
-    """Output of a git command run on the bare repository ``repo``."""
-    return subprocess.run(["git", "-C", str(repo), *args], check=True, capture_output=True).stdout
+    """Output of a git command run on the bare repository ``repo``; ConfigError with git's
+    own first line when it fails (not a git directory, a missing file)."""
+    done = subprocess.run(["git", "-C", str(repo), *args], capture_output=True)
+    if done.returncode != 0:
+        first = (done.stderr.decode(errors="replace").strip().splitlines() or ["failed"])[0]
+        raise ConfigError(f"{repo}: git {' '.join(args)}: {first}")
+    return done.stdout
 
 
 def cylinder_key(center: tuple[float, float], radius: float, height: float) -> tuple:

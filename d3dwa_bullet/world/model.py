@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -21,6 +22,9 @@ from d3dwa_bullet.world.fields import vector
 
 DEFAULT_HEIGHT = 0.5
 """Height of an obstacle whose file gives none, m."""
+DISTANCE_BROADCAST = 2**15
+"""Most point-cylinder pairs :meth:`World.distance` measures in one array operation; beyond
+it, a loop over obstacles is faster (measured by ``tools/bench/bench_barn.py``)."""
 CYLINDER_SEGMENTS = 48
 """Sides of the polygon that stands for a cylinder in :func:`obstacle_outline`."""
 
@@ -84,12 +88,32 @@ class World:
         """Signed distance from points to the nearest obstacle surface (negative inside).
 
         points: (N, 2) float64, m, world frame. Returns (N,) float64, m (+inf if no obstacles).
+        A few points (a start, a goal, a route's waypoints) are measured against every
+        cylinder in one array operation (a BARN world has hundreds); many points obstacle by
+        obstacle, each already vectorised over the points. Both use the arithmetic of
+        :func:`obstacle_distance`, so the result is the same bit for bit.
         """
         pts = np.atleast_2d(np.asarray(points, dtype=np.float64))
         best = np.full(len(pts), np.inf)
+        centres, radii = self._cylinders
+        if len(pts) * len(radii) > DISTANCE_BROADCAST:
+            for ob in self.obstacles:
+                best = np.minimum(best, obstacle_distance(ob, pts))
+            return best
+        if len(radii):
+            d = pts[:, None, :] - centres[None]
+            best = (np.hypot(d[..., 0], d[..., 1]) - radii).min(axis=1)
         for ob in self.obstacles:
-            best = np.minimum(best, obstacle_distance(ob, pts))
+            if isinstance(ob, Box):
+                best = np.minimum(best, obstacle_distance(ob, pts))
         return best
+
+    @cached_property
+    def _cylinders(self) -> tuple[np.ndarray, np.ndarray]:
+        """Centres (M, 2) m and radii (M,) m of the world's cylinders, built once."""
+        cyl = [ob for ob in self.obstacles if isinstance(ob, Cylinder)]
+        centres = np.array([ob.center for ob in cyl], dtype=np.float64).reshape(-1, 2)
+        return centres, np.array([ob.radius for ob in cyl], dtype=np.float64)
 
     def bounds(self, margin: float = 0.5) -> tuple[float, float, float, float]:
         """(xmin, ymin, xmax, ymax) enclosing obstacles, start and goal, plus margin, m."""
@@ -165,10 +189,8 @@ def start_in_collision(world: World, start: tuple[float, float, float]) -> bool:
     if not world.obstacles:
         return False
     body = body_outline(start)
-    inside_body = np.array(
-        [obstacle_distance(ob, np.array([start[:2]]))[0] for ob in world.obstacles]
-    )
-    return bool((world.distance(body) <= 0.0).any() or (inside_body <= 0.0).any())
+    centre = world.distance(np.array([start[:2]]))  # the body's centre inside an obstacle
+    return bool((world.distance(body) <= 0.0).any() or (centre <= 0.0).any())
 
 
 def goal_in_obstacle(world: World, goal: tuple[float, float]) -> bool:
