@@ -36,7 +36,7 @@ import numpy as np
 from d3dwa_bullet.geometry import wrap_angle_modular
 from d3dwa_bullet.params import RobotLimits, SimParams
 from d3dwa_bullet.resources import urdf_path
-from d3dwa_bullet.robot import AXLE_HEIGHT, TRACK, WHEEL_RADIUS
+from d3dwa_bullet.robot import AXLE_HEIGHT, LIDAR_MOUNT, TRACK, WHEEL_RADIUS
 from d3dwa_bullet.sim.bullet import p
 from d3dwa_bullet.sim.estimator import PoseEstimator
 from d3dwa_bullet.sim.lidar import Lidar, LidarParams
@@ -45,6 +45,10 @@ from d3dwa_bullet.sim.odometry import WheelOdometry
 from d3dwa_bullet.sim.scan import LaserScan
 from d3dwa_bullet.timing import StageClock, perf
 from d3dwa_bullet.world.model import Box, Cylinder, World, obstacle_outline
+
+CAPLESS_HEIGHT = AXLE_HEIGHT + LIDAR_MOUNT[2] + 0.05
+"""Obstacles taller than this (m above the floor: the lidar's height plus 5 cm) collide by their
+walls alone; their top and bottom caps are only drawn (:meth:`Simulator._add_obstacles`)."""
 
 
 @dataclass(frozen=True)
@@ -154,23 +158,30 @@ class Simulator:
         if not obstacles:
             return []
         vertices: list[list[float]] = []
-        indices: list[int] = []
+        sides: list[int] = []
+        caps: list[int] = []
         for ob in obstacles:
             outline = obstacle_outline(ob)
             n, base = len(outline), len(vertices)
             vertices += [[x, y, 0.0] for x, y in outline] + [[x, y, ob.height] for x, y in outline]
             for i in range(n):
                 j = (i + 1) % n
-                indices += [base + i, base + j, base + n + j, base + i, base + n + j, base + n + i]
-            for i in range(1, n - 1):  # caps: fans over a convex outline
-                indices += [base + n, base + n + i, base + n + i + 1, base, base + i + 1, base + i]
+                sides += [base + i, base + j, base + n + j, base + i, base + n + j, base + n + i]
+            fans = []  # caps: fans over a convex outline
+            for i in range(1, n - 1):
+                fans += [base + n, base + n + i, base + n + i + 1, base, base + i + 1, base + i]
+            (caps if ob.height > CAPLESS_HEIGHT else sides).extend(fans)
         cid = self.client
+        # A tall obstacle collides by its walls only: the lidar's rays are horizontal, below its
+        # top, and the robot can reach a cap only through a wall, so no ray or contact ever met
+        # those caps; dropping them halves the mesh and the lidar's cost in clutter
+        # (docs/benchmarks.md#barn-cost), every episode the same. A low obstacle keeps its caps.
         shape = p.createCollisionShape(
-            p.GEOM_MESH, vertices=vertices, indices=indices, flags=p.GEOM_FORCE_CONCAVE_TRIMESH,
+            p.GEOM_MESH, vertices=vertices, indices=sides, flags=p.GEOM_FORCE_CONCAVE_TRIMESH,
             physicsClientId=cid,
         )  # fmt: skip
         visual = p.createVisualShape(
-            p.GEOM_MESH, vertices=vertices, indices=indices, rgbaColor=[0.55, 0.55, 0.6, 1],
+            p.GEOM_MESH, vertices=vertices, indices=sides + caps, rgbaColor=[0.55, 0.55, 0.6, 1],
             physicsClientId=cid,
         )  # fmt: skip
         return [p.createMultiBody(0, shape, visual, [0, 0, 0], physicsClientId=cid)]
