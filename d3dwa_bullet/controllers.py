@@ -1,7 +1,8 @@
 """Building the controller of a method (docs/design.md#methods): a fixed tuple, a reference
 method's uniform chooser with its decision period, or a learned method's greedy policy loaded
 from a checkpoint directory (``policies/<name>/`` by default, or ``--policy PATH``) or from an
-exported ONNX file (``--onnx FILE``, docs/design.md#onnx-policies).
+exported ONNX file (``--onnx FILE``, docs/design.md#onnx-policies), or a method from outside
+the package (``package.module:Name`` or an entry point, docs/design.md#external-methods).
 
 Above the learning layer: loading a policy imports it. The facts about methods (names, action
 sets, families) are :mod:`d3dwa_bullet.method_specs`; the controller itself is
@@ -13,6 +14,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from d3dwa_bullet.errors import CheckpointError, ConfigError
+from d3dwa_bullet.external.guard import external_controller
+from d3dwa_bullet.external.resolve import resolve
 from d3dwa_bullet.method_specs import (
     FIXED,
     LEARNED,
@@ -49,6 +52,8 @@ def make_controller(
     refuse_policy(name, policy_path, onnx)
     if name in FIXED:
         return Controller(name, fixed=FIXED[name], source="fixed")
+    if method_family(name) == "external":
+        return external_controller(resolve(name))
     ref = reference_of(name)
     if ref is not None:
         base, hold = ref
@@ -79,14 +84,15 @@ def refuse_policy(
     if needs_policy(name):
         return
     family = method_family(name)
+    family = f"{'an' if family[0] in 'aeiou' else 'a'} {family}"
     if policy_path is not None:
         raise ConfigError(
-            f"--policy {policy_path}: method {name!r} is a {family} method and needs no "
+            f"--policy {policy_path}: method {name!r} is {family} method and needs no "
             f"policy; --policy goes with a learned method ({', '.join(LEARNED)})"
         )
     if onnx is not None:
         raise ConfigError(
-            f"{onnx}: method {name!r} does not run a network (a {family} method needs no "
+            f"{onnx}: method {name!r} does not run a network ({family} method needs no "
             f"policy); an ONNX policy drives one of {', '.join(ONNX_METHODS)}"
         )
 
