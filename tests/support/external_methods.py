@@ -169,3 +169,15 @@ NOT_A_CLASS = 3
 
 class HeldRandomToo(HeldRandom):
     """The same declaration as HeldRandom from another class: another source."""
+
+
+class LookThenStill(Straight):
+    """A velocity planner that turns on the spot for 4 s (its lidar sees all around), then
+    stands still for good: the recovery layer has to move the robot."""
+
+    def reset(self, episode_seed: int) -> None:
+        self.calls = 0
+
+    def command(self, inputs) -> tuple[float, float]:
+        self.calls += 1
+        return 0.0, (1.0 if self.calls <= 40 else 0.0)
