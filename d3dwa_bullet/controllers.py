@@ -15,7 +15,8 @@ from pathlib import Path
 
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.external.guard import external_controller
-from d3dwa_bullet.external.resolve import resolve
+from d3dwa_bullet.external.protocol import is_model_file
+from d3dwa_bullet.external.resolve import ExternalMethod, resolve
 from d3dwa_bullet.method_specs import (
     FIXED,
     LEARNED,
@@ -53,7 +54,8 @@ def make_controller(
     if name in FIXED:
         return Controller(name, fixed=FIXED[name], source="fixed")
     if method_family(name) == "external":
-        return external_controller(resolve(name))
+        method = resolve(name)
+        return _onnx_file(method) if is_model_file(name) else external_controller(method)
     ref = reference_of(name)
     if ref is not None:
         base, hold = ref
@@ -120,6 +122,26 @@ def _onnx_controller(name: str, policy_path: str | Path | None, onnx: str | Path
     return _learned(
         name, policy, actions, source, meta["decision_steps"], meta["recovery"], meta["scan_filter"]
     )
+
+
+def _onnx_file(method: ExternalMethod) -> Controller:
+    """The controller of an ONNX file named as a method: its policy run greedily over the
+    action set, decision period and observation its metadata declare
+    (docs/design.md#external-methods); the recovery layer and scan filter it trained with are
+    noted as for a policy."""
+    # the optional `robot` extra (onnxruntime), imported only when a file is run
+    from d3dwa_bullet.learning.agents.onnx_policy import load_onnx_policy
+
+    expected = (method.observation, f"method {method.name!r}")
+    policy, actions, meta = load_onnx_policy(
+        method.name, expected_actions=method.actions, expected_observation=expected
+    )
+    controller = _learned(
+        method.name, policy, actions, f"{method.origin} (ONNX, exported for {meta['method']})",
+        meta["decision_steps"], meta["recovery"], meta["scan_filter"],
+    )  # fmt: skip
+    controller.observation, controller.origin = method.observation, method.origin
+    return controller
 
 
 def _learned(

@@ -16,7 +16,8 @@ default tables show both floors: every step, and held for the shipped policies' 
 (``random@10``: 1 s at 10 Hz, the shipped configs' ``decision_steps: 10``).
 
 A fourth family, ``external``: a name that is not built in but names a method from outside
-the package, ``package.module:Name`` or an entry point of ``d3dwa_bullet.methods``
+the package, ``package.module:Name``, an entry point of ``d3dwa_bullet.methods`` or an ONNX
+file exported by ``d3dwa export``
 (docs/design.md#external-methods). Only its name is judged here; loading it is
 :mod:`d3dwa_bullet.external.resolve`'s job. Built-in names are looked up first, so they are
 never shadowed, and installed entry points are read only for a name that is not built in.
@@ -25,7 +26,12 @@ never shadowed, and installed entry points are read only for a name that is not 
 from __future__ import annotations
 
 from d3dwa_bullet.errors import ConfigError, UnknownNameError
-from d3dwa_bullet.external.protocol import ENTRY_POINT_GROUP, entry_points_named, is_import_path
+from d3dwa_bullet.external.protocol import (
+    ENTRY_POINT_GROUP,
+    entry_points_named,
+    is_import_path,
+    is_model_file,
+)
 from d3dwa_bullet.limits import MAX_DECISION_STEPS
 from d3dwa_bullet.planning.actions import (
     ACTIONS_FULL,
@@ -131,12 +137,12 @@ def is_builtin(name: str) -> bool:
 
 def check_method(name: str) -> str:
     """name, if it names a method: a built-in one (a reference method with any valid decision
-    period included), else ``package.module:Name`` or an installed entry point of
-    ``d3dwa_bullet.methods``; UnknownNameError, or ConfigError for a bad decision period,
+    period included), else ``package.module:Name``, an ONNX file (``*.onnx``) or an installed
+    entry point of ``d3dwa_bullet.methods``; UnknownNameError, or ConfigError for a bad decision period,
     otherwise."""
     if name in _EXTERNAL_SEEN or is_builtin(name):
         return name
-    if is_import_path(name) or name in entry_points_named():
+    if is_import_path(name) or is_model_file(name) or name in entry_points_named():
         _EXTERNAL_SEEN.add(name)
         return name
     raise UnknownNameError(

@@ -41,6 +41,7 @@ __all__ = [
     "VelocityPlanner",
     "entry_points_named",
     "is_import_path",
+    "is_model_file",
 ]
 
 #: The version of this interface; a method's class declares the one it implements.
@@ -82,6 +83,15 @@ class VelocityPlanner(Protocol):
         """(v m/s, w rad/s), finite, |v| <= limits.v_max and |w| <= limits.w_max; the
         robot's accelerations limit how fast the command is reached."""
         ...
+
+
+#: A method named by a file: an ONNX policy with the contract ``d3dwa export`` writes.
+MODEL_SUFFIXES = (".onnx",)
+
+
+def is_model_file(name: str) -> bool:
+    """Whether name is a path to a model file a method runs (``policy.onnx``)."""
+    return name.lower().endswith(MODEL_SUFFIXES)
 
 
 def is_import_path(name: str) -> bool:

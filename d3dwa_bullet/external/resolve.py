@@ -20,12 +20,13 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from d3dwa_bullet.errors import ExternalMethodError
+from d3dwa_bullet.errors import D3DWAError, ExternalMethodError
 from d3dwa_bullet.external.protocol import (
     ENTRY_POINT_GROUP,
     INTERFACE_VERSION,
     entry_points_named,
     is_import_path,
+    is_model_file,
 )
 from d3dwa_bullet.limits import MAX_DECISION_STEPS, is_decision_period
 from d3dwa_bullet.method_specs import HOLD_MARK, REFERENCE, is_builtin, method_family
@@ -75,6 +76,8 @@ def resolve(name: str) -> ExternalMethod:
         raise ExternalMethodError(
             f"method {name!r} is a built-in method's name: built-ins are never shadowed"
         )
+    if is_model_file(name):
+        return _model_file(name)
     if is_import_path(name):
         cls, module = _import_class(name), name.partition(":")[0]
         origin = _origin(name, None)
@@ -95,6 +98,27 @@ def resolve(name: str) -> ExternalMethod:
         module = ep.value.partition(":")[0]
         origin = _origin(ep.value, getattr(ep, "dist", None))
     return _declared(name, cls, module, origin)
+
+
+def _model_file(name: str) -> ExternalMethod:
+    """An ONNX file exported by ``d3dwa export``: its action set, decision period and
+    observation from its own metadata (checked by the shipped loader's bounds), never
+    guessed; ExternalMethodError if it is missing or does not load."""
+    # the optional robot extra (onnxruntime), needed only when a file names the method
+    from d3dwa_bullet.learning.agents.onnx_policy import onnx_metadata
+
+    path = Path(name)
+    if not path.is_file():
+        raise ExternalMethodError(f"method {name!r}: no such file")
+    try:
+        meta = onnx_metadata(path)
+    except D3DWAError as err:
+        raise ExternalMethodError(f"method {name!r}: {err}") from err
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    return ExternalMethod(
+        name, "chooser", type(None), "", f"{path.resolve()} (sha256 {digest})",
+        meta["actions"], meta["decision_steps"], meta["observation"]["kind"],
+    )  # fmt: skip
 
 
 def _import_class(name: str) -> type:
