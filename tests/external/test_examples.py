@@ -55,11 +55,18 @@ def test_eval_prints_both_rows_and_the_reference(capsys, ftg_path, one_second_wo
 
 
 @pytest.mark.slow
-def test_the_example_installs_by_its_entry_point(tmp_path):
+@pytest.mark.parametrize(
+    ("folder", "entry", "source"),
+    [
+        (FTG, "follow-the-gap", "follow_the_gap.planner:FollowTheGap (d3dwa-follow-the-gap 0.1.0)"),
+        (ROOT / "examples" / "sb3_dqn", "sb3-dqn", "sb3_dqn.chooser:SB3DQN (d3dwa-sb3-dqn 0.1.0)"),
+    ],
+)
+def test_the_example_installs_by_its_entry_point(tmp_path, folder, entry, source):
     """pip install into a fresh virtual environment (seeing this one's packages through a
     .pth file, so nothing is downloaded), then ``d3dwa methods`` and ``d3dwa run`` find it by
     name."""
-    src = shutil.copytree(FTG, tmp_path / "src")  # setuptools builds in the source tree
+    src = shutil.copytree(folder, tmp_path / "src")  # setuptools builds in the source tree
     env_dir = tmp_path / "venv"
     venv.create(env_dir, with_pip=False)  # pip and setuptools: this environment's
     python = str(env_dir / "bin" / "python")
@@ -80,12 +87,9 @@ def test_the_example_installs_by_its_entry_point(tmp_path):
         check=True, cwd=ROOT, env=env, capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     rows = {r["name"]: r for r in json.loads(listed.stdout)}
-    assert rows["follow-the-gap"]["source"] == (
-        "follow_the_gap.planner:FollowTheGap (d3dwa-follow-the-gap 0.1.0)"
-    )
+    assert rows[entry]["source"] == source
     ran = subprocess.run(
-        [python, "-m", "d3dwa_bullet.cli", "run", "--world", "R1", "--method", "follow-the-gap",
-         "--json"],
+        [python, "-m", "d3dwa_bullet.cli", "run", "--world", "R1", "--method", entry, "--json"],
         check=True, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300,
     )  # fmt: skip
-    assert json.loads(ran.stdout)["method"] == "follow-the-gap"
+    assert json.loads(ran.stdout)["method_source"] == source
