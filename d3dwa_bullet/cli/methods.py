@@ -35,8 +35,7 @@ def cmd_methods(args: argparse.Namespace) -> int:
     width = max(len(r["name"]) for r in rows)
     for r in rows:
         print(f"{r['name']:<{width}}  {r['family']:<9} {r['label']}  [{r['source']}]")
-    print(
-        f"\nexternal methods: interface version {INTERFACE_VERSION}; any class as "
-        f"package.module:Name, or installed under the entry point group {ENTRY_POINT_GROUP}"
-    )
+    print(f"\nmethods from outside the package: interface version {INTERFACE_VERSION}")
+    print(f"  a class as package.module:Name, or installed in the group {ENTRY_POINT_GROUP}")
+    print("  an ONNX file written by `d3dwa export` (docs/design.md#external-methods)")
     return 0

@@ -32,6 +32,7 @@ from d3dwa_bullet.evaluation.sweep_settings import (
     STYLES,
     SweepSettings,
 )
+from d3dwa_bullet.external.resolve import with_floors
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -81,7 +82,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     workers = workers_arg(args)
     seed_arg(args.seed)
     settings = SweepSettings(
-        methods=tuple(list_arg(args.methods, "--methods", default_methods)),
+        # a chooser from outside the package gets its floors, as in eval
+        methods=tuple(with_floors(list_arg(args.methods, "--methods", default_methods))),
         worlds=tuple(split_list(args.worlds) if args.worlds is not None else SHIPPED_WORLDS),
         styles=tuple(split_list(args.styles) if args.styles is not None else STYLES),
         layouts=args.layouts, seeds=args.seeds, first_seed=args.seed, levels=args.levels,

@@ -74,3 +74,16 @@ def test_eval_rows_name_the_source_and_one_name_never_mixes_two(
     _entry_points(monkeypatch, mine=f"{HERE}:HeldRandomToo")
     line = refused(capsys, *args, "--out", out)
     assert "method 'mine' came from" in line and "never mixes two sources" in line
+
+
+def test_sweep_runs_a_chooser_with_its_floors(capsys, one_second_world, tmp_path):
+    out = tmp_path / "sweep"
+    code, _, err = run(
+        capsys, "sweep", "--methods", f"{HERE}:HeldRandom", "--axes", "", "--profiles", "none",
+        "--layouts", 0, "--worlds", one_second_world, "--workers", 1, "--out", out,
+    )  # fmt: skip
+    assert code == 0, err
+    rows = list(csv.DictReader((out / "results.csv").open()))
+    assert {r["method"] for r in rows} == {f"{HERE}:HeldRandom", "random", "random@10"}
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["settings"]["method_sources"][f"{HERE}:HeldRandom"].startswith(f"{HERE}:HeldRandom")
