@@ -144,7 +144,8 @@ class SB3Chooser:
 
 def _mlp_greedy(layers: list[tuple[Any, Any]]):
     """argmax of SB3's MlpPolicy Q-network forward pass: float32, ReLU between layers."""
-    # torch: the file's own number format, so the argmax is SB3's own
+    # start-up cost: torch only when an SB3 file runs; torch's own float32 ops, so the argmax
+    # is SB3's own
     import torch
     from torch.nn import functional
 

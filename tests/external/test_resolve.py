@@ -84,6 +84,7 @@ def _entry_points(monkeypatch, **points: str) -> None:
     monkeypatch.setattr(protocol, "entry_points_named", lambda: found)
     monkeypatch.setattr("d3dwa_bullet.method_specs.entry_points_named", lambda: found)
     monkeypatch.setattr("d3dwa_bullet.external.resolve.entry_points_named", lambda: found)
+    monkeypatch.setattr("d3dwa_bullet.method_specs._EXTERNAL_SEEN", set())
 
 
 def test_an_entry_point_resolves_and_a_builtin_name_is_never_shadowed(monkeypatch):
