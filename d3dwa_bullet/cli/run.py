@@ -30,8 +30,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--method",
         required=True,
-        help=f"one of {', '.join(METHODS)}, or one from outside the package (package.module:Name or "
-        "an installed entry point: d3dwa methods)",
+        help=f"one of {', '.join(METHODS)}, or one from outside the package: package.module:Name, "
+        "an installed entry point (d3dwa methods) or an ONNX file from d3dwa export",
     )
     p.add_argument("--seed", type=int, default=0)
     add_task_options(p)

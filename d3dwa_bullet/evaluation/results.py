@@ -70,7 +70,8 @@ paper-track directory has no such column, so its files keep the paper track's by
 its rows read as recovery "none"."""
 SOURCE_FIELD = "method_source"
 """The column a run with a method from outside the package adds: where it came from
-(``module (distribution version)`` or ``file (sha256 HEX)``), empty for a built-in method."""
+(``module:Name (distribution version)``, ``module:Name in FILE (sha256 HEX)`` or ``FILE (sha256
+HEX)`` for an ONNX file), empty for a built-in method."""
 DERIVED_PAGES = ("table.md", "sweep.md", "report.md")
 """Pages computed from results.csv; removed while a run is incomplete."""
 

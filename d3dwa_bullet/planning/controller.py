@@ -55,8 +55,8 @@ class Controller:
     """The scan filter its policy trained behind (beyond the paper, docs/design.md#scan-filter):
     whatever drives it checks its own filter is this one (``check_driven_filter``)."""
     origin: str = ""
-    """Where a method from outside the package came from (``module (distribution version)``
-    or ``file (sha256 HEX)``), for its results rows; empty for a built-in method."""
+    """Where a method from outside the package came from (``module:Name (distribution
+    version)``, or a file and its SHA-256), for its results rows; empty for a built-in method."""
     velocity: LocalPlanner | None = None
     """A local planner that replaces the DWA (a velocity planner from outside the package:
     ``planning.velocity_command``); None: the DWA plans with the chosen parameters."""
