@@ -1,7 +1,8 @@
 """Building the controller of a method (docs/design.md#methods): a fixed tuple, a reference
 method's uniform chooser with its decision period, or a learned method's greedy policy loaded
 from a checkpoint directory (``policies/<name>/`` by default, or ``--policy PATH``) or from an
-exported ONNX file (``--onnx FILE``, docs/design.md#onnx-policies).
+exported ONNX file (``--onnx FILE``, docs/design.md#onnx-policies), or a method from outside
+the package (``package.module:Name`` or an entry point, docs/design.md#external-methods).
 
 Above the learning layer: loading a policy imports it. The facts about methods (names, action
 sets, families) are :mod:`d3dwa_bullet.method_specs`; the controller itself is
@@ -13,6 +14,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from d3dwa_bullet.errors import CheckpointError, ConfigError
+from d3dwa_bullet.external.guard import external_controller
+from d3dwa_bullet.external.protocol import is_model_file
+from d3dwa_bullet.external.resolve import ExternalMethod, resolve
 from d3dwa_bullet.method_specs import (
     FIXED,
     LEARNED,
@@ -49,6 +53,9 @@ def make_controller(
     refuse_policy(name, policy_path, onnx)
     if name in FIXED:
         return Controller(name, fixed=FIXED[name], source="fixed")
+    if method_family(name) == "external":
+        method = resolve(name)
+        return _onnx_file(method) if is_model_file(name) else external_controller(method)
     ref = reference_of(name)
     if ref is not None:
         base, hold = ref
@@ -79,14 +86,15 @@ def refuse_policy(
     if needs_policy(name):
         return
     family = method_family(name)
+    family = f"{'an' if family[0] in 'aeiou' else 'a'} {family}"
     if policy_path is not None:
         raise ConfigError(
-            f"--policy {policy_path}: method {name!r} is a {family} method and needs no "
+            f"--policy {policy_path}: method {name!r} is {family} method and needs no "
             f"policy; --policy goes with a learned method ({', '.join(LEARNED)})"
         )
     if onnx is not None:
         raise ConfigError(
-            f"{onnx}: method {name!r} does not run a network (a {family} method needs no "
+            f"{onnx}: method {name!r} does not run a network ({family} method needs no "
             f"policy); an ONNX policy drives one of {', '.join(ONNX_METHODS)}"
         )
 
@@ -114,6 +122,26 @@ def _onnx_controller(name: str, policy_path: str | Path | None, onnx: str | Path
     return _learned(
         name, policy, actions, source, meta["decision_steps"], meta["recovery"], meta["scan_filter"]
     )
+
+
+def _onnx_file(method: ExternalMethod) -> Controller:
+    """The controller of an ONNX file named as a method: its policy run greedily over the
+    action set, decision period and observation its metadata declare
+    (docs/design.md#external-methods); the recovery layer and scan filter it trained with are
+    noted as for a policy."""
+    # the optional `robot` extra (onnxruntime), imported only when a file is run
+    from d3dwa_bullet.learning.agents.onnx_policy import load_onnx_policy
+
+    expected = (method.observation, f"method {method.name!r}")
+    policy, actions, meta = load_onnx_policy(
+        method.name, expected_actions=method.actions, expected_observation=expected
+    )
+    controller = _learned(
+        method.name, policy, actions, f"{method.origin} (ONNX, exported for {meta['method']})",
+        meta["decision_steps"], meta["recovery"], meta["scan_filter"],
+    )  # fmt: skip
+    controller.observation, controller.origin = method.observation, method.origin
+    return controller
 
 
 def _learned(

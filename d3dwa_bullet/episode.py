@@ -17,7 +17,7 @@ import numpy as np
 
 from d3dwa_bullet.episode_config import EpisodeConfig  # re-exported: its old home
 from d3dwa_bullet.episode_metrics import body_clearance, posture_displacement, trajectory_length
-from d3dwa_bullet.params import PROGRESS_RADIUS
+from d3dwa_bullet.params import PROGRESS_RADIUS, PlannerParams
 from d3dwa_bullet.planning.controller import Controller
 from d3dwa_bullet.planning.observation import build_observation, goal_in_body
 from d3dwa_bullet.planning.observation_kinds import make_observer, observation_layout
@@ -25,6 +25,7 @@ from d3dwa_bullet.planning.planner import PlannerAction, PlanResult, plan
 from d3dwa_bullet.planning.progress import NoProgressClock
 from d3dwa_bullet.planning.recovery import Recovery, RecoveryCommand
 from d3dwa_bullet.planning.scan_filter import ScanFilter, check_driven_filter
+from d3dwa_bullet.planning.velocity_command import LocalPlanner, PlannerInputs
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.scan import LaserScan, scan_points_body
 from d3dwa_bullet.sim.simulator import Simulator
@@ -69,13 +70,20 @@ class EpisodeResult:
     noise: str = "none"
     recovery: str = "none"
     """The recovery layer the episode ran with (``--recovery``)."""
+    source: str = ""
+    """Where a method from outside the package came from (``Controller.origin``); empty for
+    a built-in method."""
+    overruns: int = 0
+    """Calls of a method from outside the package that took longer than the control period
+    (the simulation did not wait for them: docs/design.md#external-methods)."""
     log: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     observations: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)), repr=False)
 
     def summary(self) -> dict[str, Any]:
         """The JSON/CSV row: world, method, seed, noise, outcome, time_s, tl_m, pd_rad,
         min_clearance_m, steps, and recovery when a recovery layer ran (a paper-track row keeps
-        the paper track's columns)."""
+        the paper track's columns), and method_source and overruns for a method from outside
+        the package."""
         row = {
             "world": self.world,
             "method": self.method,
@@ -90,6 +98,8 @@ class EpisodeResult:
         }
         if self.recovery != "none":
             row["recovery"] = self.recovery
+        if self.source:
+            row |= {"method_source": self.source, "overruns": self.overruns}
         return row
 
 
@@ -115,10 +125,14 @@ def observation_of(pose, velocity, goal, points: np.ndarray, config: EpisodeConf
 
 
 def plan_from(
-    pose, velocity, goal, points: np.ndarray, action: PlannerAction, config: EpisodeConfig
-) -> PlanResult:
-    """The DWA step from an estimate and the chosen parameters (shared with bag replay)."""
-    return plan(velocity, points, goal_in_body(pose, goal), action, config.planner)
+    pose, velocity, goal, points: np.ndarray, action: PlannerAction, config: EpisodeConfig,
+    local: LocalPlanner | None = None,
+) -> PlanResult:  # fmt: skip
+    """The DWA step from an estimate and the chosen parameters (shared with bag replay), or
+    a velocity planner's command (``local``: ``Controller.velocity``)."""
+    return step_plan(
+        local, pose, velocity, points, goal_in_body(pose, goal), action, config.planner
+    )
 
 
 class Episode:
@@ -140,6 +154,7 @@ class Episode:
         config: EpisodeConfig = EpisodeConfig(),
         gui: bool = False,
         observation: str = "paper",
+        velocity_planner: LocalPlanner | None = None,
     ):
         self.world, self.seed, self.noise_name, self.config = world, seed, noise_name, config
         self.progress = make_observer(observation)
@@ -181,6 +196,8 @@ class Episode:
         """The scan filter chain (per episode: its state starts empty)."""
         self.last_recovery: RecoveryCommand | None = None
         """What the recovery layer drove at the last act() (None: the planner drove)."""
+        self.velocity_planner = velocity_planner
+        """A velocity planner in place of the DWA (``Controller.velocity``; None: the DWA)."""
 
     def observe(self) -> np.ndarray:
         """Sense and judge termination; returns the observation, (12,) or (17,) by the kind
@@ -236,7 +253,10 @@ class Episode:
         if self.recovery is not None:
             rescue = self.recovery.command(t, est_pose, self.points, (goal[0], goal[1]), est_vel)
         if rescue is None:
-            result = plan(est_vel, self.points, goal, action, self.config.planner)
+            result = step_plan(
+                self.velocity_planner, est_pose, est_vel, self.points, goal, action,
+                self.config.planner,
+            )  # fmt: skip
         else:
             result = recovery_result(rescue)
         self.last_recovery = rescue
@@ -297,13 +317,37 @@ _NO_SAMPLES = np.zeros((0, 2))
 _NOTHING = np.zeros(0)
 
 
+def command_result(v: float, w: float) -> PlanResult:
+    """A command that no DWA sampled, as a PlanResult: no samples, index -1, no fallback."""
+    return PlanResult(
+        v=v, w=w, index=-1, fallback=False, samples=_NO_SAMPLES, progress=_NOTHING,
+        clearance=_NOTHING, speed=_NOTHING, admissible=np.zeros(0, dtype=bool), scores=_NOTHING,
+    )  # fmt: skip
+
+
+def step_plan(
+    local: LocalPlanner | None, pose, velocity, points: np.ndarray, goal: np.ndarray,
+    action: PlannerAction, params: PlannerParams,
+) -> PlanResult:  # fmt: skip
+    """One planning step: the DWA with action's weights and horizon (local None), else a
+    velocity planner's command (docs/design.md#external-methods), given copies of the
+    inputs. pose (x, y, yaw) and velocity (v, w): the estimate; points: (M, 2) m, base_link;
+    goal: (2,) m, base_link."""
+    if local is None:
+        return plan(velocity, points, goal, action, params)
+    copy = np.array  # a new float64 array each: nothing the planner writes reaches ours
+    inputs = PlannerInputs(
+        copy(points, dtype=np.float64).reshape(-1, 2), copy(pose, dtype=np.float64),
+        copy(velocity, dtype=np.float64), copy(goal[:2], dtype=np.float64), params.limits,
+        params.control_period,
+    )  # fmt: skip
+    v, w = local(inputs)
+    return command_result(float(v), float(w))
+
+
 def recovery_result(command: RecoveryCommand) -> PlanResult:
     """A recovery step as a PlanResult: its command, no samples (index -1, not a fallback)."""
-    return PlanResult(
-        v=command.v, w=command.w, index=-1, fallback=False, samples=_NO_SAMPLES,
-        progress=_NOTHING, clearance=_NOTHING, speed=_NOTHING,
-        admissible=np.zeros(0, dtype=bool), scores=_NOTHING,
-    )  # fmt: skip
+    return command_result(command.v, command.w)
 
 
 #: Called after each control step (the robot has moved): (episode, action index, action, plan).
@@ -326,7 +370,9 @@ def run_episode(
     method that draws its actions (``random``) draws the same ones for the same seed."""
     check_driven_filter(controller.scan_filter, config.scan_filter, f"the {controller.name} policy")
     controller.reset(seed)
-    with Episode(world, seed, noise, noise_name, config, gui, controller.observation) as ep:
+    with Episode(
+        world, seed, noise, noise_name, config, gui, controller.observation, controller.velocity
+    ) as ep:
         while True:
             obs = ep.observe()
             if ep.outcome is not None:
@@ -335,4 +381,8 @@ def run_episode(
             result = ep.act(index, action)
             if on_step is not None:
                 on_step(ep, index, action, result)
-        return ep.result(controller.name)
+        out = ep.result(controller.name)
+    out.source = controller.origin
+    # only an external method's controller counts its overruns (external.guard)
+    out.overruns = getattr(controller, "overruns", 0)
+    return out

@@ -80,3 +80,8 @@ class WriteError(D3DWAError, OSError):
 
     def __str__(self) -> str:
         return f"{self.filename}: cannot write: {self.strerror}"
+
+
+class ExternalMethodError(D3DWAError, RuntimeError):
+    """A method from outside the package cannot be trusted: missing, of another interface
+    version, raising, or answering with something that is not a finite, in-range answer."""

@@ -14,11 +14,24 @@ every control step (``random``, ``random-weights``) or keeping each draw for a d
 of k control steps (``random@k``, ``random-weights@k``; ``random@1`` is ``random``). The
 default tables show both floors: every step, and held for the shipped policies' period
 (``random@10``: 1 s at 10 Hz, the shipped configs' ``decision_steps: 10``).
+
+A fourth family, ``external``: a name that is not built in but names a method from outside
+the package, ``package.module:Name``, an entry point of ``d3dwa_bullet.methods`` or an ONNX
+file exported by ``d3dwa export``
+(docs/design.md#external-methods). Only its name is judged here; loading it is
+:mod:`d3dwa_bullet.external.resolve`'s job. Built-in names are looked up first, so they are
+never shadowed, and installed entry points are read only for a name that is not built in.
 """
 
 from __future__ import annotations
 
 from d3dwa_bullet.errors import ConfigError, UnknownNameError
+from d3dwa_bullet.external.protocol import (
+    ENTRY_POINT_GROUP,
+    entry_points_named,
+    is_import_path,
+    is_model_file,
+)
 from d3dwa_bullet.limits import MAX_DECISION_STEPS
 from d3dwa_bullet.planning.actions import (
     ACTIONS_FULL,
@@ -113,18 +126,40 @@ def reference_of(name: str) -> tuple[str, int] | None:
     return base, int(period)
 
 
+#: External method names already judged in this process (entry points are read once).
+_EXTERNAL_SEEN: set[str] = set()
+
+
+def is_builtin(name: str) -> bool:
+    """Whether name is a built-in method (a reference method with any valid period included)."""
+    return name in METHODS or reference_of(name) is not None
+
+
 def check_method(name: str) -> str:
-    """name, if it names a method (a reference method with any valid decision period
-    included); UnknownNameError, or ConfigError for a bad decision period, otherwise."""
-    if name in METHODS or reference_of(name) is not None:
+    """name, if it names a method: a built-in one (a reference method with any valid decision
+    period included), else ``package.module:Name``, an ONNX file (``*.onnx``) or an installed
+    entry point of ``d3dwa_bullet.methods``; UnknownNameError, or ConfigError for a bad decision period,
+    otherwise."""
+    if name in _EXTERNAL_SEEN or is_builtin(name):
         return name
-    raise UnknownNameError(f"unknown method {name!r}: choose one of {', '.join(METHODS)}")
+    if is_import_path(name) or is_model_file(name) or name in entry_points_named():
+        _EXTERNAL_SEEN.add(name)
+        return name
+    raise UnknownNameError(
+        f"unknown method {name!r}: choose one of {', '.join(METHODS)}, a class named "
+        f"package.module:Name, or an installed method of {ENTRY_POINT_GROUP} (d3dwa methods)"
+    )
 
 
 def method_family(name: str) -> str:
-    """``fixed``, ``reference`` or ``learned`` (UnknownNameError for an unknown method)."""
+    """``fixed``, ``reference``, ``learned`` or ``external`` (UnknownNameError for an unknown
+    method)."""
     check_method(name)
-    return "fixed" if name in FIXED else "learned" if name in LEARNED else "reference"
+    if name in FIXED:
+        return "fixed"
+    if name in LEARNED:
+        return "learned"
+    return "reference" if is_builtin(name) else "external"
 
 
 def needs_policy(name: str) -> bool:

@@ -103,7 +103,8 @@ def decide(
     index, action = controller(obs)
     if progress is not None:
         progress.chose(action)
-    return obs, index, action, plan_from(pose, velocity, goal, points, action, config)
+    result = plan_from(pose, velocity, goal, points, action, config, controller.velocity)
+    return obs, index, action, result
 
 
 class _EkfEstimate:

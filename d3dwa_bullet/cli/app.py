@@ -1,6 +1,7 @@
 """The ``d3dwa`` command line.
 
     d3dwa worlds                          list the shipped worlds
+    d3dwa methods                         list the methods, built-in and installed from outside
     d3dwa run --world TS1 --method dwa3   one episode (headless; --gui to watch)
     d3dwa eval --out results/             methods x worlds x seeds -> results.csv, table.md, figures
     d3dwa sweep --methods dwa1 --out DIR  methods x noise levels on R1-R3 + unseen layouts -> plots
@@ -13,7 +14,7 @@
     d3dwa serve --world R1 --lockstep     a simulated Kachaka behind the Kachaka API (gRPC)
     d3dwa drive --kachaka HOST --goal X,Y --method dwa3   drive a robot through that API
 
-Each command is one module of this package (``worlds``, ``run``, ``eval``, ``sweep``,
+Each command is one module of this package (``worlds``, ``methods``, ``run``, ``eval``, ``sweep``,
 ``report``, ``compare``, ``train``, ``bags``, ``calibrate``, ``export``, ``drive``, ``serve``)
 with ``add_parser(sub)`` and its ``cmd_*(args)``; shared
 options are in ``options``. A command imports the simulator, torch or matplotlib only when
@@ -47,6 +48,7 @@ import d3dwa_bullet.cli.compare as compare_command
 import d3dwa_bullet.cli.drive as drive_command
 import d3dwa_bullet.cli.eval as eval_command
 import d3dwa_bullet.cli.export as export_command
+import d3dwa_bullet.cli.methods as methods_command
 import d3dwa_bullet.cli.report as report_command
 import d3dwa_bullet.cli.run as run_command
 import d3dwa_bullet.cli.serve as serve_command
@@ -59,6 +61,7 @@ from d3dwa_bullet.errors import D3DWAError
 
 COMMANDS = (
     worlds_command,
+    methods_command,
     run_command,
     eval_command,
     sweep_command,

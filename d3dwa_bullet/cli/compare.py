@@ -125,19 +125,23 @@ def _side(out: Path, method: str, warn: bool = True) -> tuple[list[dict[str, Any
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from d3dwa_bullet.method_specs import check_method, floors_of, method_family
+    # start-up cost: a method from outside the package is resolved (its module imported)
+    from d3dwa_bullet.evaluation.floors import floors_for
+    from d3dwa_bullet.method_specs import check_method
 
     args.margins = margins_of(args)
     names = [m.strip() for m in args.methods.split(",") if m.strip()]
-    if len(names) == 1 and not args.against and method_family(check_method(names[0])) == "learned":
+    # one learned or external method: against its floors (a velocity planner: DWA III)
+    own = floors_for(check_method(names[0]))[0] if len(names) == 1 else ()
+    if own and not args.against:
         out = Path(args.dir)
         rows = job_rows_of(out)
         present = {r["method"] for r in rows}
-        floors = [f for f in floors_of(names[0]) if f in present]
+        floors = [f for f in own if f in present]
         if not floors:
             raise ResultsError(
                 f"{out / 'results.csv'}: no floor of method {names[0]!r} "
-                f"({', '.join(floors_of(names[0]))}) to compare it with"
+                f"({', '.join(own)}) to compare it with"
             )
         for floor in floors:
             _compare(args, names[0], floor)

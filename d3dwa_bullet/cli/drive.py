@@ -54,7 +54,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("drive", help="drive a Kachaka (or `d3dwa serve`) with a method")
     p.add_argument("--kachaka", required=True, metavar="HOST[:PORT]", help="robot address")
     p.add_argument("--goal", required=True, help="X,Y goal in the robot's odometry frame (m)")
-    p.add_argument("--method", required=True, help=f"one of {', '.join(METHODS)}")
+    p.add_argument(
+        "--method", required=True,
+        help=f"one of {', '.join(METHODS)}, or package.module:Name / an installed method (d3dwa methods)",
+    )  # fmt: skip
     p.add_argument("--policy", help="checkpoint directory for a learned method")
     p.add_argument(
         "--onnx", metavar="FILE",

@@ -37,6 +37,7 @@ from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
+from d3dwa_bullet.external.resolve import method_origins, with_floors
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.limits import MAX_EPISODES, MAX_SEED_VALUE, MAX_SEEDS
 from d3dwa_bullet.method_specs import check_method
@@ -84,6 +85,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     workers = workers_arg(args)
     config = episode_config(args)
     methods = [check_method(m) for m in list_arg(args.methods, "--methods", default_methods)]
+    methods = with_floors(methods)  # a chooser from outside the package gets its floors
     suite = suite_world_names(args)
     world_args = suite or list_arg(args.worlds, "--worlds", lambda: world_names(*TABLE1_GROUPS))
     policy = policy_arg(args.policy, methods)
@@ -126,7 +128,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         "seeds": seeds, "noise": args.noise,
         "policy_seeds": {m: [r.policy_seed for r in runs if r.method == m and
                              r.policy_seed is not None] for m in methods},
-        "policy_digests": policy_digests(runs),
+        "policy_digests": policy_digests(runs), "method_sources": method_origins(methods),
     }  # fmt: skip
     if policy:
         settings["policy"] = str(Path(policy).resolve())

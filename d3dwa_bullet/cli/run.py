@@ -27,7 +27,12 @@ from d3dwa_bullet.method_specs import METHODS
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run one episode")
     add_world_option(p, required=True, help="world name (see `d3dwa worlds`) or a world file")
-    p.add_argument("--method", required=True, help=f"one of {', '.join(METHODS)}")
+    p.add_argument(
+        "--method",
+        required=True,
+        help=f"one of {', '.join(METHODS)}, or one from outside the package: package.module:Name, "
+        "an installed entry point (d3dwa methods) or an ONNX file from d3dwa export",
+    )
     p.add_argument("--seed", type=int, default=0)
     add_task_options(p)
     p.add_argument("--gui", action="store_true", help="open the PyBullet GUI")
@@ -78,7 +83,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             f"min clearance {summary['min_clearance_m']:.3f} m ({summary['steps']} steps)",
             flush=True,
         )
-        if controller.policy is not None or controller.hold > 1:
+        if controller.origin:
+            overran = f"; {result.overruns} call(s) over the control period" * bool(result.overruns)
+            print(f"method: {controller.source}{overran}", flush=True)
+        elif controller.policy is not None or controller.hold > 1:
             print(f"policy: {controller.source}", flush=True)
     if args.plot:
         # start-up cost: matplotlib (~0.3 s) only with --plot

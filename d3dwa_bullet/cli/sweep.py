@@ -34,6 +34,7 @@ from d3dwa_bullet.evaluation.sweep_settings import (
     STYLES,
     SweepSettings,
 )
+from d3dwa_bullet.external.resolve import with_floors
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -90,7 +91,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     given = split_list(args.worlds) if args.worlds is not None else SHIPPED_WORLDS
     styles = split_list(args.styles) if args.styles is not None else (() if suite else STYLES)
     settings = SweepSettings(
-        methods=tuple(list_arg(args.methods, "--methods", default_methods)),
+        # a chooser from outside the package gets its floors, as in eval
+        methods=tuple(with_floors(list_arg(args.methods, "--methods", default_methods))),
         worlds=tuple(given if suite is None else suite), styles=tuple(styles),
         layouts=args.layouts, seeds=args.seeds, first_seed=args.seed, levels=args.levels,
         axes=tuple(split_list(args.axes) if args.axes is not None else AXES),

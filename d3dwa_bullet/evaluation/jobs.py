@@ -45,11 +45,13 @@ from d3dwa_bullet.evaluation.results import (
     row_key,
     save_log,
     with_recovery,
+    with_sources,
     write_meta,
 )
 from d3dwa_bullet.evaluation.scores import add_scores, needs_scores, score_cells
 from d3dwa_bullet.io import file_stem
 from d3dwa_bullet.loading import parse_json
+from d3dwa_bullet.method_specs import method_family
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.noise_config import NoiseConfig
 from d3dwa_bullet.world.model import World
@@ -194,6 +196,7 @@ def _evaluate(
 ) -> list[dict[str, Any]]:
     recovery = config.recovery_name
     fields = with_recovery(fields, recovery)
+    fields = with_sources(fields, any(method_family(j.method) == "external" for j in jobs))
     settings = dict(settings or {"kind": "eval"}) | {"score_form": SCORE_FORM}
     v_max = config.planner.limits.v_max
     if recovery != "none":

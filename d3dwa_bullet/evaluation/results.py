@@ -75,6 +75,10 @@ RECOVERY_FIELD = "recovery"
 """The column a run with a recovery layer adds (its ``--recovery`` name in every row); a
 paper-track directory has no such column, so its files keep the paper track's bytes, and
 its rows read as recovery "none"."""
+SOURCE_FIELD = "method_source"
+"""The column a run with a method from outside the package adds: where it came from
+(``module:Name (distribution version)``, ``module:Name in FILE (sha256 HEX)`` or ``FILE (sha256
+HEX)`` for an ONNX file), empty for a built-in method."""
 DERIVED_PAGES = ("table.md", "sweep.md", "report.md")
 """Pages computed from results.csv; removed while a run is incomplete."""
 
@@ -97,6 +101,12 @@ def with_recovery(fields: Sequence[str], recovery: str) -> tuple[str, ...]:
 def unscored(fields: Sequence[str]) -> list[str]:
     """The columns a run of ``fields`` wrote before the score (UNSCORED_FORMAT)."""
     return [f for f in fields if f not in SCORE_FIELDS]
+
+
+def with_sources(fields: Sequence[str], external: bool) -> tuple[str, ...]:
+    """The CSV columns of a run: fields, plus SOURCE_FIELD when a method from outside the
+    package runs (``external``)."""
+    return (*fields, SOURCE_FIELD) if external and SOURCE_FIELD not in fields else tuple(fields)
 
 
 def recovery_of(out: Path, meta: Mapping[str, Any] | None = None) -> str:
@@ -278,6 +288,14 @@ def check_same_run(
             f"{out / 'meta.json'}: its {', '.join(changed)} episodes were driven by other "
             "weights than the policy this command loads (retrained or replaced since); use "
             "another --out directory"
+        )
+    old, now = before.get("method_sources", {}), settings.get("method_sources", {})
+    changed = sorted(k for k in old.keys() & now.keys() if old[k] != now[k])
+    if changed:
+        raise ResultsError(
+            f"{out / 'meta.json'}: method {changed[0]!r} came from {old[changed[0]]}, this "
+            f"command's from {now[changed[0]]}; one directory never mixes two sources under "
+            "one name: use another --out directory"
         )
     sources = dict(zip(before.get("worlds", []), before.get("world_sources", []), strict=False))
     new = dict(zip(settings.get("worlds", []), settings.get("world_sources", []), strict=False))

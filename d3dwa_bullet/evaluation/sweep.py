@@ -64,6 +64,7 @@ from d3dwa_bullet.evaluation.sweep_settings import (
     episode_count,
 )
 from d3dwa_bullet.evaluation.tables import repeats_note, run_notes, series_table
+from d3dwa_bullet.external.resolve import method_origins
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.limits import MAX_EPISODES
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
@@ -327,6 +328,7 @@ def run_sweep(
     jobs = sweep_jobs(settings, policy)
     meta = {"kind": "sweep", "command": command} | settings.to_dict()
     meta["policy_digests"] = policy_digests(runs)
+    meta["method_sources"] = method_origins(settings.methods)
     if policy:
         meta["policy"] = str(Path(policy).resolve())
     notes = meta["policy_notes"] = policy_config_notes(runs, config.recovery_name, policy)

@@ -4,7 +4,10 @@ A controller maps an observation to (action index, PlannerAction); the planner t
 rest. A fixed method returns a constant; a reference method draws an index uniformly from its
 action set, from a generator the episode seed seeds (:meth:`Controller.reset`); a learned
 method runs a greedy policy (any callable from an observation to an index). Any of them may
-keep each choice for a decision period of ``hold`` control steps.
+keep each choice for a decision period of ``hold`` control steps. A chooser from outside the
+package implements the same surface (``actions``, ``hold``, ``observation``, ``reset``,
+``choose``: docs/design.md#external-methods); a velocity planner from outside replaces the DWA
+itself (``velocity``).
 
 Pure: numpy only. Building the controller of a method, its policy loaded from a checkpoint or
 an ONNX file, is :func:`d3dwa_bullet.controllers.make_controller`'s job.
@@ -20,6 +23,7 @@ import numpy as np
 
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.planning.actions import ActionSet, PlannerAction
+from d3dwa_bullet.planning.velocity_command import LocalPlanner
 
 #: The tag that keeps a reference method's draws a stream of their own: its generator is
 #: seeded by SeedSequence([episode seed, RANDOM_STREAM]), which no other draw of an episode
@@ -50,6 +54,12 @@ class Controller:
     scan_filter: str = "none"
     """The scan filter its policy trained behind (beyond the paper, docs/design.md#scan-filter):
     whatever drives it checks its own filter is this one (``check_driven_filter``)."""
+    origin: str = ""
+    """Where a method from outside the package came from (``module:Name (distribution
+    version)``, or a file and its SHA-256), for its results rows; empty for a built-in method."""
+    velocity: LocalPlanner | None = None
+    """A local planner that replaces the DWA (a velocity planner from outside the package:
+    ``planning.velocity_command``); None: the DWA plans with the chosen parameters."""
     _rng: np.random.Generator | None = field(default=None, init=False, repr=False)
     _held: tuple[int, int] | None = field(default=None, init=False, repr=False)
 
@@ -88,3 +98,8 @@ class Controller:
         if self.hold > 1:
             self._held = (index, self.hold - 1)
         return index, self.actions.decode(index)  # type: ignore[union-attr]
+
+    def choose(self, obs: np.ndarray) -> int:
+        """The action index of this step (-1 for a fixed method): the chooser protocol's call
+        (docs/design.md#external-methods)."""
+        return self(obs)[0]

@@ -1,0 +1,41 @@
+"""``d3dwa methods``: list the built-in methods and the installed ones from outside the
+package (entry point group ``d3dwa_bullet.methods``), with where each came from."""
+
+from __future__ import annotations
+
+import argparse
+
+from d3dwa_bullet.cli.output import json_text
+from d3dwa_bullet.external.protocol import ENTRY_POINT_GROUP, INTERFACE_VERSION
+from d3dwa_bullet.method_specs import METHODS, method_family, method_label
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("methods", help="list the built-in methods and the installed external ones")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_methods)
+
+
+def cmd_methods(args: argparse.Namespace) -> int:
+    # start-up cost: resolving imports each installed method's module, which only this
+    # command and a run of an external method need
+    from d3dwa_bullet.external.resolve import installed_methods
+
+    rows = [
+        {"name": m, "family": method_family(m), "label": method_label(m), "source": "built-in"}
+        for m in METHODS
+    ]
+    rows += [
+        {"name": r["name"], "family": "external", "label": r["kind"], "source": r["origin"]}
+        for r in installed_methods()
+    ]
+    if args.json:
+        print(json_text(rows))
+        return 0
+    width = max(len(r["name"]) for r in rows)
+    for r in rows:
+        print(f"{r['name']:<{width}}  {r['family']:<9} {r['label']}  [{r['source']}]")
+    print(f"\nmethods from outside the package: interface version {INTERFACE_VERSION}")
+    print(f"  a class as package.module:Name, or installed in the group {ENTRY_POINT_GROUP}")
+    print("  an ONNX file written by `d3dwa export` (docs/design.md#external-methods)")
+    return 0

@@ -1,0 +1,108 @@
+"""The interface a method from outside the package implements, version 1
+(docs/design.md#external-methods).
+
+Two kinds, told apart by the one call each has:
+
+* a **parameter chooser** (``choose``): the observation in, an action index of its declared
+  action set out; the testbed's DWA, scan filter and recovery layer do the rest. The
+  built-in methods' :class:`~d3dwa_bullet.planning.controller.Controller` has this surface.
+* a **velocity planner** (``command``): :class:`PlannerInputs` in (the filtered scan's points,
+  the estimated pose and velocity, the goal in base_link, the limits), (v m/s, w rad/s) out;
+  it replaces the DWA, and the recovery layer wraps it as it wraps the DWA.
+
+A method is a class built with no arguments, named ``package.module:Name`` or registered under
+the entry point group :data:`ENTRY_POINT_GROUP`. Its class declares ``interface_version``
+(:data:`INTERFACE_VERSION`). It is given copies of its inputs, never the simulator; whatever
+it returns is checked (a finite index in its set, a finite command within the limits) and a
+method that raises or answers otherwise ends the run, refused in one line.
+
+Pure: the standard library and numpy; the method's own module is imported only when it runs
+(:mod:`d3dwa_bullet.external.resolve`).
+"""
+
+from __future__ import annotations
+
+import re
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
+
+import numpy as np
+
+from d3dwa_bullet.planning.actions import ActionSet
+from d3dwa_bullet.planning.velocity_command import PlannerInputs
+
+if TYPE_CHECKING:
+    from importlib.metadata import EntryPoint
+
+__all__ = [
+    "ENTRY_POINT_GROUP",
+    "INTERFACE_VERSION",
+    "ParameterChooser",
+    "PlannerInputs",
+    "VelocityPlanner",
+    "entry_points_named",
+    "is_import_path",
+    "is_model_file",
+]
+
+#: The version of this interface; a method's class declares the one it implements.
+INTERFACE_VERSION = 1
+#: The entry point group an installed package registers its methods under (name = method).
+ENTRY_POINT_GROUP = "d3dwa_bullet.methods"
+_IMPORT_PATH = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*")
+
+
+@runtime_checkable
+class ParameterChooser(Protocol):
+    """Observation in, an index of ``actions`` out, every ``hold`` control steps.
+
+    actions: the action set it chooses from (one of the shipped sets: 100 actions of
+    weights x horizon, or the 25 weight triples at a 4 s horizon, so its floors exist);
+    hold: its decision period, control steps (1: every step); observation: the kind it reads
+    (``paper``: the 12-d state of docs/design.md#observation)."""
+
+    actions: ActionSet
+    hold: int
+    observation: str
+
+    def reset(self, episode_seed: int) -> None:
+        """Start an episode (seed >= 0: a method that draws seeds its own generator here)."""
+
+    def choose(self, obs: np.ndarray) -> int:
+        """obs: (D,) float64, a copy. Returns an index in [0, len(actions))."""
+        ...
+
+
+@runtime_checkable
+class VelocityPlanner(Protocol):
+    """Planner inputs in, a velocity command out, every control step."""
+
+    def reset(self, episode_seed: int) -> None:
+        """Start an episode."""
+
+    def command(self, inputs: PlannerInputs) -> tuple[float, float]:
+        """(v m/s, w rad/s), finite, |v| <= limits.v_max and |w| <= limits.w_max; the
+        robot's accelerations limit how fast the command is reached."""
+        ...
+
+
+#: A method named by a file: an ONNX policy with the contract ``d3dwa export`` writes.
+MODEL_SUFFIXES = (".onnx",)
+
+
+def is_model_file(name: str) -> bool:
+    """Whether name is a path to a model file a method runs (``policy.onnx``)."""
+    return name.lower().endswith(MODEL_SUFFIXES)
+
+
+def is_import_path(name: str) -> bool:
+    """Whether name is spelled ``package.module:Name``."""
+    return _IMPORT_PATH.fullmatch(name) is not None
+
+
+def entry_points_named() -> dict[str, EntryPoint]:
+    """The installed entry points of :data:`ENTRY_POINT_GROUP` by name (none loaded)."""
+    # start-up cost: reading installed packages' metadata happens only for a name that is
+    # not built in, never for the built-in methods
+    from importlib.metadata import entry_points
+
+    return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}

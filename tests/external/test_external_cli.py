@@ -1,0 +1,89 @@
+"""Methods from outside the package on the command line: ``d3dwa methods``, ``run`` and
+``eval`` with one, its source in every row, and the one-line refusals (exit 2)."""
+
+from __future__ import annotations
+
+import csv
+import json
+from importlib.metadata import EntryPoint
+
+import pytest
+
+from d3dwa_bullet.external import protocol
+from tests.support.cli import refused, run
+
+HERE = "tests.support.external_methods"
+
+
+def _entry_points(monkeypatch, **points: str) -> None:
+    found = {n: EntryPoint(n, v, protocol.ENTRY_POINT_GROUP) for n, v in points.items()}
+    for where in ("protocol", "resolve"):
+        monkeypatch.setattr(f"d3dwa_bullet.external.{where}.entry_points_named", lambda: found)
+    monkeypatch.setattr("d3dwa_bullet.method_specs.entry_points_named", lambda: found)
+    monkeypatch.setattr("d3dwa_bullet.method_specs._EXTERNAL_SEEN", set())
+
+
+def test_methods_lists_builtins_and_installed_ones_with_their_source(capsys, monkeypatch):
+    _entry_points(monkeypatch, straight=f"{HERE}:Straight", dwa1=f"{HERE}:Straight")
+    code, out, _ = run(capsys, "methods", "--json")
+    rows = {r["name"]: r for r in json.loads(out)}
+    assert code == 0 and rows["dwa3"]["source"] == "built-in"
+    assert rows["straight"]["label"] == "velocity planner"
+    assert rows["straight"]["source"].startswith(f"{HERE}:Straight in ")
+    dwa1 = [r for r in json.loads(out) if r["name"] == "dwa1"]
+    assert dwa1[0]["source"] == "built-in"  # never shadowed, and the installed one is refused
+    assert dwa1[1]["label"] == "refused" and "never shadowed" in dwa1[1]["source"]
+
+
+def test_run_names_the_source(capsys, one_second_world):
+    code, out, _ = run(
+        capsys, "run", "--world", one_second_world, "--method", f"{HERE}:Straight", "--json"
+    )
+    row = json.loads(out)
+    assert code == 0 and row["steps"] == 10 and row["method_source"].startswith(f"{HERE}:Straight")
+
+
+@pytest.mark.parametrize(
+    ("method", "said"),
+    [
+        ("nowhere_pkg.mod:Thing", "module 'nowhere_pkg.mod' cannot be imported"),
+        (f"{HERE}:RaisesAtConstruction", "raised at construction"),
+        (f"{HERE}:TooFast", "beyond the robot's limits"),
+    ],
+)
+def test_run_refuses_a_method_that_cannot_be_trusted(capsys, one_second_world, method, said):
+    line = refused(capsys, "run", "--world", one_second_world, "--method", method)
+    assert method in line and said in line
+
+
+def test_eval_rows_name_the_source_and_one_name_never_mixes_two(
+    capsys, monkeypatch, one_second_world, tmp_path
+):
+    _entry_points(monkeypatch, mine=f"{HERE}:HeldRandom")
+    out = tmp_path / "res"
+    args = ("eval", "--methods", "dwa3,mine", "--worlds", one_second_world, "--workers", 1)
+    code, _, err = run(capsys, *args, "--out", out)
+    assert code == 0, err
+    rows = list(csv.DictReader((out / "results.csv").open()))
+    by_method = {r["method"]: r["method_source"] for r in rows}
+    # the chooser's floors came with it: every step and held for its declared period
+    assert set(by_method) == {"dwa3", "mine", "random", "random@10"}
+    assert by_method["dwa3"] == "" and by_method["mine"].startswith(f"{HERE}:HeldRandom in ")
+    table = (out / "table.md").read_text()
+    assert "`random@10`" in table.split("Against chance")[1]
+    _entry_points(monkeypatch, mine=f"{HERE}:HeldRandomToo")
+    line = refused(capsys, *args, "--out", out)
+    assert "method 'mine' came from" in line and "never mixes two sources" in line
+
+
+def test_sweep_runs_a_chooser_with_its_floors(capsys, one_second_world, tmp_path):
+    out = tmp_path / "sweep"
+    code, _, err = run(
+        capsys, "sweep", "--methods", f"{HERE}:HeldRandom", "--axes", "", "--profiles", "none",
+        "--layouts", 0, "--worlds", one_second_world, "--workers", 1, "--out", out,
+    )  # fmt: skip
+    assert code == 0, err
+    rows = list(csv.DictReader((out / "results.csv").open()))
+    assert {r["method"] for r in rows} == {f"{HERE}:HeldRandom", "random", "random@10"}
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["settings"]["method_sources"][f"{HERE}:HeldRandom"].startswith(f"{HERE}:HeldRandom")
