@@ -25,6 +25,7 @@ def test_counts_the_listed_and_the_run_episodes_of_an_eval_and_a_sweep(one_secon
 
 def test_refuses_another_command_and_an_out_in_one_line(capsys):
     assert main(["train", "--config", "x.yaml"]) == 2
-    assert capsys.readouterr().err.startswith("episode_count: error: give a d3dwa eval")
+    err = capsys.readouterr().err
+    assert err.startswith("episode_count: error: argument command: invalid choice: 'train'")
     assert main(["eval", "--out", "somewhere"]) == 2
     assert "leave out --out" in capsys.readouterr().err

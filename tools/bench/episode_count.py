@@ -13,9 +13,9 @@ prints {"command", "listed", "run", "saved", "by_method": {method: [listed, run]
 
 from __future__ import annotations
 
+import argparse
 import json
 import shlex
-import sys
 import tempfile
 from collections import Counter
 from collections.abc import Sequence
@@ -26,7 +26,7 @@ from d3dwa_bullet.cli.app import build_parser
 from d3dwa_bullet.evaluation import jobs as evaluation
 from d3dwa_bullet.evaluation import sweep
 from d3dwa_bullet.evaluation.repeats import kept_keys
-from tools.entry import fail, tool_main
+from tools.entry import ToolParser, fail, tool_main
 
 
 class _Counted(Exception):
@@ -44,7 +44,7 @@ def _count(jobs: Sequence[evaluation.Job], *args: Any, **kwargs: Any) -> list[An
 def count(argv: Sequence[str]) -> dict[str, Any]:
     """The counts of one eval or sweep command line (its words after ``d3dwa``)."""
     if not argv or argv[0] not in ("eval", "sweep"):
-        fail("episode_count", "give a d3dwa eval or sweep command, e.g. eval --seeds 3")
+        fail("episode_count", f"{argv[:1]}: give a d3dwa eval or sweep command")
     if "--out" in argv:
         fail("episode_count", "leave out --out: nothing is written")
     with tempfile.TemporaryDirectory() as scratch:
@@ -72,11 +72,11 @@ def count(argv: Sequence[str]) -> dict[str, Any]:
 
 @tool_main
 def main(argv: Sequence[str] | None = None) -> None:
-    words = list(sys.argv[1:] if argv is None else argv)
-    if words[:1] == ["--help"] or words[:1] == ["-h"]:
-        print(__doc__)
-        return
-    print(json.dumps(count(words)))
+    ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("command", choices=("eval", "sweep"), help="the d3dwa command to count")
+    ap.add_argument("options", nargs=argparse.REMAINDER, help="its options, as d3dwa takes them")
+    args = ap.parse_args(argv)
+    print(json.dumps(count([args.command, *args.options])))
 
 
 if __name__ == "__main__":
