@@ -3,6 +3,7 @@ difference test and TOST would need, figured from the pilot's per-layout differe
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from d3dwa_bullet.evaluation.results import SCORE_FIELDS
 from tests.support.results_logs import write_results
 from tools.experiments import power_plan
 
@@ -33,6 +35,14 @@ def pilot(path, methods=("d3dwa", "dwa3")):
                               noise=noise, outcome="goal" if g else "timeout")
                          for s, g in enumerate(seeds)]  # fmt: skip
     write_results(path, ((r, {}) for r in rows), sweep=False)
+    # a pilot from before the score (format 3): its results.csv has no score columns
+    with (path / "results.csv").open(newline="") as fh:
+        table = list(csv.DictReader(fh))
+    columns = [c for c in table[0] if c not in SCORE_FIELDS]
+    with (path / "results.csv").open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, columns, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(table)
     (path / "meta.json").write_text(json.dumps({"format": 3, "settings": {}, "jobs": []}))
     return path
 
