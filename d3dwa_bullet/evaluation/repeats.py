@@ -23,13 +23,16 @@ name) is taken to draw from the seed: it runs every seed, as before. Pure: no si
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 
 from d3dwa_bullet.method_specs import FIXED, LEARNED
 
 Key = tuple[str, str, int | None, int, str]
-"""(world, method, policy_seed, seed, noise): a results key (``results.Key``; results.py,
-which reads and writes the directory, imports this module)."""
+"""(world, method, policy_seed, seed, noise): what identifies an episode in a results
+directory. policy_seed is the training seed of the policy that drove it (``seed-<k>`` of a
+method's policy folder), None for a fixed method or a policy that is not one of a folder's
+seeds; it is an empty cell in results.csv. Defined here, below results.py (which imports it
+as ``results.Key``), as this module reads keys and results.py this module."""
 
 NOISE_FREE = "none"
 """The noise label of an episode without noise: the profile ``none`` (``make_noise`` gives no
@@ -66,9 +69,3 @@ def kept_keys(keys: Iterable[Key]) -> list[Key]:
         for k in keys
         if not repeats_at_every_seed(k[1], k[4]) or first[(k[0], k[1], k[2], k[4])] == k[3]
     ]
-
-
-def ran_once(keys: Sequence[Key]) -> bool:
-    """True when some of keys were left to run once for several evaluation seeds (a page then
-    says :data:`ONCE_NOTE`)."""
-    return len(kept_keys(keys)) < len(set(keys))

@@ -44,7 +44,7 @@ import numpy as np
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.columns import TYPED_COLUMNS, check_one_track
-from d3dwa_bullet.evaluation.repeats import kept_keys
+from d3dwa_bullet.evaluation.repeats import Key, kept_keys
 from d3dwa_bullet.io import AppendFile, atomic_write_bytes, atomic_write_text, read_text
 from d3dwa_bullet.loading import load_json, parse_json
 
@@ -79,11 +79,6 @@ its rows read as recovery "none"."""
 DERIVED_PAGES = ("table.md", "sweep.md", "report.md")
 """Pages computed from results.csv; removed while a run is incomplete."""
 
-Key = tuple[str, str, int | None, int, str]
-"""(world, method, policy_seed, seed, noise): what identifies an episode in a results
-directory. policy_seed is the training seed of the policy that drove it (``seed-<k>`` of a
-method's policy folder), None for a fixed method or a policy that is not one of a folder's
-seeds; it is an empty cell in results.csv."""
 KEY_FIELDS = ("world", "method", "policy_seed", "seed", "noise")
 EPISODE_SETTINGS = {"time_limit": "--time-limit", "policy": "--policy", "recovery": "--recovery"}
 """Settings (meta.json "settings") that change an episode but not its key, with the option
