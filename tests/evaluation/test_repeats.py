@@ -130,6 +130,29 @@ def test_a_sweep_runs_its_noise_free_cells_once(one_second_world, tmp_path):
     assert "Deterministic without noise: run once per layout" in (tmp_path / "sweep.md").read_text()
 
 
+def test_a_sweep_with_the_repeats_resumes_without_rerunning(
+    one_second_world, tmp_path, monkeypatch
+):
+    settings = SweepSettings(methods=("dwa3", "random"), worlds=(one_second_world,), styles=(),
+                             layouts=0, seeds=2, levels=1, axes=(), profiles=("none",))  # fmt: skip
+    with monkeypatch.context() as m:
+        m.setattr(evaluation, "kept_keys", list)
+        run_sweep(settings, tmp_path, progress=False, figures=False)
+    assert len(read_results(tmp_path)) == 4  # before the rule: DWA III at both seeds
+
+    def no_episode(*args):
+        raise AssertionError("an episode ran on resume")
+
+    monkeypatch.setattr(evaluation, "_worker", no_episode)
+    rows, complete = run_sweep(settings, tmp_path, progress=False, figures=False)
+    assert complete and sorted((r["method"], r["seed"]) for r in rows) == [
+        ("dwa3", 0), ("random", 0), ("random", 1),
+    ]  # fmt: skip
+    page = (tmp_path / "sweep.md").read_text()  # one-second episodes: every one a timeout
+    assert "| DWA III (2,1,1) | given | 0/1; 0.00 |" in page  # its layout counted once
+    assert "| Random (uniform over 100 actions) | given | 0/2; 0.00 |" in page
+
+
 LAYOUTS = [f"L{k}" for k in range(6)]
 SEEDS = (0, 1, 2)
 # a greedy policy's three training seeds: one outcome per layout, the same at every seed
