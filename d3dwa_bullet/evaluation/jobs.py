@@ -30,6 +30,7 @@ from d3dwa_bullet.episode import EpisodeConfig, EpisodeResult, run_episode
 from d3dwa_bullet.episode_metrics import SCORE_FORM
 from d3dwa_bullet.errors import ConfigError, ResultsError
 from d3dwa_bullet.evaluation.policy_runs import check_scan_filters
+from d3dwa_bullet.evaluation.repeats import kept_keys
 from d3dwa_bullet.evaluation.results import (
     CSV_FIELDS,
     DERIVED_PAGES,
@@ -173,7 +174,11 @@ def evaluate(
     workers: local processes (1 = this process). ray_address: run on Ray instead (see
     :mod:`d3dwa_bullet.backends`). fields: the CSV columns (CSV_FIELDS plus the
     jobs' extra columns). settings: what the command was (kind, methods, worlds, ...), kept
-    in meta.json for ``d3dwa report``. Rows are appended as episodes finish; once every job
+    in meta.json for ``d3dwa report``. A job that repeats its episode at every evaluation
+    seed (no noise, a fixed or learned method: :mod:`~d3dwa_bullet.evaluation.repeats`) runs
+    at the first seed of its (world, method, training seed, noise) only: its other seeds get
+    no episode, no row and no key in meta.json (a directory from before that holds their
+    rows is resumed; the rows are left in results.csv and not returned). Rows are appended as episodes finish; once every job
     is in, results.csv is rewritten in the order of jobs, whatever the backend. A directory
     whose rows these jobs would not resume or extend is refused before any episode runs
     (ResultsError from :func:`~d3dwa_bullet.evaluation.results.check_same_run`), and so is
@@ -206,12 +211,15 @@ def _evaluate(
     unique: dict[Key, Job] = {}
     for j in jobs:  # a world or seed named twice is one episode, not two rows
         unique.setdefault(j.key, j)
+    listed = list(unique)  # a directory from before may hold the repeats: they are listed
+    kept = set(kept_keys(listed))  # deterministic without noise: the first seed only
+    unique = {k: j for k, j in unique.items() if k in kept}
     jobs = list(unique.values())
     check_results_dir(out, fields, recovery)
     drop_partial_row(out / "results.csv")
     done = {row_key(r) for r in read_results(out)}
     keys = [j.key for j in jobs]
-    check_same_run(out, keys, config, settings)
+    check_same_run(out, listed, config, settings)
     if needs_scores(out, fields):  # a directory from before the score: its rows scored first
         add_scores(out, fields, {j.world.name: reference_length(j.world) for j in jobs}, v_max)
     todo = [j for j in jobs if j.key not in done]

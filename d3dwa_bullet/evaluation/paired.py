@@ -29,6 +29,7 @@ import numpy as np
 from scipy import optimize, stats
 
 from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation.repeats import repeats_at_every_seed
 
 Row = Mapping[str, Any]
 Unit = tuple[str, str, int | None]
@@ -61,12 +62,30 @@ def paired_scores(
 ) -> dict[Unit, tuple[float, float]]:
     """{unit: (A's metric, B's metric)} over the units both methods ran, each side's value
     averaged over its training seeds there (and over its evaluation seeds unless by_seed).
-    A side with a row lacking the metric (None) is NaN there: never averaged over fewer."""
+    A side with a row lacking the metric (None) is NaN there: never averaged over fewer. An
+    episode that repeats at every evaluation seed (:mod:`~d3dwa_bullet.evaluation.repeats`),
+    run once, by seed stands for each evaluation seed the other side ran on its layout: the
+    units and values are those its repeated rows gave (and give, if rows hold them)."""
     seen: dict[Unit, dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
-    for r in rows:
-        if r["method"] in (a, b):
-            value = metric_value(r, metric)
-            seen[unit_of(r, by_seed)][r["method"]].append(np.nan if value is None else value)
+    once: dict[tuple[str, str], dict[str, list[tuple[int, float]]]] = defaultdict(
+        lambda: defaultdict(list)
+    )
+    for r in (r for r in rows if r["method"] in (a, b)):
+        value = np.nan if (v := metric_value(r, metric)) is None else v
+        if by_seed and repeats_at_every_seed(r["method"], r["noise"]):
+            once[(r["world"], r["noise"])][r["method"]].append((int(r["seed"]), value))
+        else:
+            seen[unit_of(r, by_seed)][r["method"]].append(value)
+    # an episode run once for every evaluation seed stands at each seed the other side ran
+    # there; two such sides pair once, at their first seed
+    at: dict[tuple[str, str], list[Unit]] = defaultdict(list)
+    for u in seen:
+        at[u[:2]].append(u)  # type: ignore[arg-type]
+    for (world, noise), per in once.items():
+        first = min(seed for runs in per.values() for seed, _ in runs)
+        for method, runs in per.items():
+            for u in at.get((world, noise)) or [(world, noise, first)]:
+                seen[u][method] += [value for _, value in runs]
     return {
         u: (float(np.mean(per[a])), float(np.mean(per[b])))
         for u, per in sorted(seen.items(), key=lambda kv: (kv[0][0], kv[0][1], kv[0][2] or 0))

@@ -30,6 +30,7 @@ from d3dwa_bullet.evaluation.results import (
     check_results_dir,
     completion,
     job_rows,
+    once_per_layout,
     read_meta,
     recovery_of,
     row_key,
@@ -94,7 +95,7 @@ def eval_markdown(
         f"# {title or 'Evaluation: ' + ', '.join(worlds)}\n\n"
         f"{run_notes(recovery, policy_notes, scan_filter)}"
         f"Noise profile: `{noise}`; evaluation seeds: {span}.\n\n"
-        f"{repeats_note(len(seeds), 'their cells') if noise == 'none' else ''}"
+        f"{repeats_note(len(seeds), methods, noise)}"
         f"{keys}"
         "## Over training seeds\n\n"
         "A run is one training seed of a learned method (its episodes averaged) or one "
@@ -281,7 +282,7 @@ def _eval_body(out: Path, meta: dict[str, Any], rows: list[dict], partial: bool)
 def _sweep_body(out: Path, meta: dict[str, Any], partial: bool) -> str:
     settings = SweepSettings.from_dict(meta["settings"])
     keys = {tuple(k) for k in meta["jobs"]}
-    rows = [r for r in read_sweep(out) if row_key(r) in keys]
+    rows = once_per_layout([r for r in read_sweep(out) if row_key(r) in keys])
     # Figures newer than results.csv were drawn from these very rows: keep them.
     names = [f"sweep_{a}.png" for a in settings.axes] + ["sweep_profiles.png"] * bool(
         settings.profiles

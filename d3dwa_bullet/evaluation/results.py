@@ -44,6 +44,7 @@ import numpy as np
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.columns import TYPED_COLUMNS, check_one_track
+from d3dwa_bullet.evaluation.repeats import Key, kept_keys
 from d3dwa_bullet.io import AppendFile, atomic_write_bytes, atomic_write_text, read_text
 from d3dwa_bullet.loading import load_json, parse_json
 
@@ -82,11 +83,6 @@ HEX)`` for an ONNX file), empty for a built-in method."""
 DERIVED_PAGES = ("table.md", "sweep.md", "report.md")
 """Pages computed from results.csv; removed while a run is incomplete."""
 
-Key = tuple[str, str, int | None, int, str]
-"""(world, method, policy_seed, seed, noise): what identifies an episode in a results
-directory. policy_seed is the training seed of the policy that drove it (``seed-<k>`` of a
-method's policy folder), None for a fixed method or a policy that is not one of a folder's
-seeds; it is an empty cell in results.csv."""
 KEY_FIELDS = ("world", "method", "policy_seed", "seed", "noise")
 EPISODE_SETTINGS = {"time_limit": "--time-limit", "policy": "--policy", "recovery": "--recovery"}
 """Settings (meta.json "settings") that change an episode but not its key, with the option
@@ -119,6 +115,13 @@ def recovery_of(out: Path, meta: Mapping[str, Any] | None = None) -> str:
 def row_key(row: Mapping[str, Any]) -> Key:
     """The key of a typed results row (see :func:`read_results`)."""
     return (row["world"], row["method"], row["policy_seed"], row["seed"], row["noise"])
+
+
+def once_per_layout(rows: Sequence[Mapping[str, Any]]) -> list[Any]:
+    """rows with each episode that repeats at every evaluation seed counted once, at its first
+    seed (``repeats.kept_keys``): a directory from before that rule reads as one from since."""
+    kept = set(kept_keys(row_key(r) for r in rows))
+    return [r for r in rows if row_key(r) in kept]
 
 
 def policy_seed_cell(policy_seed: int | None) -> str:
@@ -379,15 +382,17 @@ def order_results(out: Path, keys: Sequence[Key]) -> bool:
 
 def job_rows(out: Path, meta: Mapping[str, Any] | None = None) -> list[dict[str, Any]]:
     """The rows of results.csv that belong to the last run's jobs (meta.json "jobs"; every
-    row if meta.json lists none). meta: the directory's meta.json if already read."""
+    row if meta.json lists none), each episode that repeats at every evaluation seed counted
+    once (:func:`once_per_layout`). meta: the directory's meta.json if already read."""
     meta = read_meta(out) if meta is None else meta
     keys = {tuple(k) for k in meta.get("jobs", [])}
-    return [r for r in read_results(out) if not keys or row_key(r) in keys]
+    return once_per_layout([r for r in read_results(out) if not keys or row_key(r) in keys])
 
 
 def completion(out: Path, rows: Sequence[dict[str, Any]] | None = None) -> tuple[int, int]:
     """(episodes finished, episodes in the last run's job list) of a results directory."""
-    jobs = {tuple(k) for k in read_meta(out).get("jobs", [])}
+    # a directory from before lists the repeats of a deterministic episode: counted once
+    jobs = set(kept_keys(tuple(k) for k in read_meta(out).get("jobs", [])))
     rows = read_results(out) if rows is None else rows
     done = {row_key(r) for r in rows}
     return len(jobs & done), len(jobs)

@@ -58,8 +58,10 @@ def _bootstrap(
     if all(t.size == 1 for t in tasks) or all(np.ptp(t) == 0 for t in tasks):
         value = float(statistic(*tasks))  # nothing to resample: the interval is the point
         return value, value
-    # A task with one seed resamples to itself: keep it fixed (SciPy needs two or more).
-    free = [i for i, t in enumerate(tasks) if t.size > 1]
+    # A task with one seed, or with every seed the same, resamples to itself: keep it fixed
+    # (SciPy needs two or more; and a method whose episode repeats at every evaluation seed
+    # then gives the same interval from its one run as from its repeats: evaluation.repeats).
+    free = [i for i, t in enumerate(tasks) if np.ptp(t) > 0]
 
     def resampled(*xs: np.ndarray) -> float:
         full = list(tasks)

@@ -53,7 +53,13 @@ from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.plotting import sweep_figure
 from d3dwa_bullet.evaluation.policy_config import policy_config_notes
 from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
-from d3dwa_bullet.evaluation.results import CSV_FIELDS, completion, read_results, row_key
+from d3dwa_bullet.evaluation.results import (
+    CSV_FIELDS,
+    completion,
+    once_per_layout,
+    read_results,
+    row_key,
+)
 from d3dwa_bullet.evaluation.score_tables import score_condition_tables
 from d3dwa_bullet.evaluation.scores import UNSCORED_NOTE, is_scored
 from d3dwa_bullet.evaluation.seed_tables import condition_table
@@ -254,7 +260,7 @@ def sweep_markdown(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -
     ]
     if not is_scored(rows):
         parts.append(f"\n{UNSCORED_NOTE}\n")
-    if note := repeats_note(settings.seeds, "their noise-free cells (level 0, profile `none`)"):
+    if note := repeats_note(settings.seeds, settings.methods):  # the noise-free cells
         parts.append("\n" + note.rstrip("\n") + "\n")
     for name in settings.axes:
         axis = AXES[name]
@@ -335,7 +341,7 @@ def run_sweep(
     with locked_dir(out):  # one writer: the episodes, then the page and figures
         evaluate(jobs, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta)
         keys = {j.key for j in jobs}
-        rows = [r for r in read_sweep(out) if row_key(r) in keys]
+        rows = once_per_layout([r for r in read_sweep(out) if row_key(r) in keys])
         done, expected = completion(out, rows)
         complete = done == expected
         if complete and figures:

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from d3dwa_bullet.evaluation.repeats import NOISE_FREE, ONCE_NOTE, repeats_at_every_seed
 from d3dwa_bullet.evaluation.stats import CellStats, Series
 from d3dwa_bullet.method_specs import method_label
 
@@ -124,18 +125,13 @@ def run_notes(recovery: str, policy_notes: Sequence[str] = (), scan_filter: str 
     )
 
 
-def repeats_note(seeds: int, cells: str) -> str:
-    """What a page says when it has several evaluation seeds of noise-free episodes: nothing is
-    drawn from the episode seed without noise but the random choosers' actions, so a fixed
-    method or a learned (greedy) policy repeats its episode (empty for one seed)."""
-    if seeds <= 1:
+def repeats_note(seeds: int, methods: Sequence[str], noise: str = NOISE_FREE) -> str:
+    """What a page says when some of its episodes ran once for several evaluation seeds: a
+    fixed or learned method without noise (:mod:`~d3dwa_bullet.evaluation.repeats`); empty
+    for one seed, another noise, or only random choosers."""
+    if seeds <= 1 or not any(repeats_at_every_seed(m, noise) for m in methods):
         return ""
-    return (
-        f"Without noise nothing is drawn from the episode seed but the random choosers' "
-        f"actions: a fixed method or a learned policy runs the same episode at each of the "
-        f"{seeds} evaluation seeds, so {cells} count every world {seeds} times and their "
-        f"intervals are that much too narrow.\n\n"
-    )
+    return ONCE_NOTE + "\n\n"
 
 
 def scan_filter_of(meta: Mapping[str, Any]) -> str:

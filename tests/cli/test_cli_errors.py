@@ -356,7 +356,7 @@ def test_a_world_file_task_error_still_names_the_file(tmp_path, capsys):
 
 def table_methods(out: Path) -> set[str]:
     return {line.split("|")[1].strip() for line in (out / "table.md").read_text().splitlines()
-            if line.startswith("| DWA")}  # fmt: skip
+            if line.startswith(("| DWA", "| Random"))}  # fmt: skip
 
 
 def csv_keys(out: Path) -> set[tuple[str, str, str]]:
@@ -379,11 +379,15 @@ def test_eval_never_writes_a_table_that_disagrees_with_its_csv(tmp_path, capsys,
     assert "noise none" in line
     assert {name: (out / name).read_bytes() for name in saved} == saved  # nothing rewritten
 
-    # Extending (more seeds) is a merge: the table covers every row of the CSV.
-    assert main([str(a) for a in [*base, "--methods", "dwa1,dwa3", "--seeds", "2"]]) == 0
+    # Extending (more seeds, a method) is a merge: the table covers every row of the CSV.
+    more = [*base, "--methods", "dwa1,dwa3,random", "--seeds", "2"]
+    assert main([str(a) for a in more]) == 0
     meta = json.loads((out / "meta.json").read_text())
     assert csv_keys(out) == {(w, m, str(s)) for w, m, _, s, _ in meta["jobs"]}
-    assert len(csv_keys(out)) == 4 and table_methods(out) == {"DWA I (1,1,2)", "DWA III (2,1,1)"}
+    # the fixed methods repeat their noise-free episode: no second seed; the random one has it
+    assert len(csv_keys(out)) == 4 and table_methods(out) == {
+        "DWA I (1,1,2)", "DWA III (2,1,1)", "Random (uniform over 100 actions)"
+    }  # fmt: skip
     capsys.readouterr()
     line = refused(capsys, *base, "--methods", "dwa1,dwa3")  # back to one seed: refused
     assert "seeds 1" in line

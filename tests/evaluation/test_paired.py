@@ -24,7 +24,8 @@ B_GOALS = {(w, s): (k + 2 * s) % 3 == 0 for k, w in enumerate(LAYOUTS) for s in 
 
 
 def row(method: str, world: str, seed: int, goal: bool, policy_seed: int | None) -> dict:
-    return {"method": method, "world": world, "noise": "none", "seed": seed,
+    # noise `real`: without noise a fixed or greedy method's seeds are one episode (repeats)
+    return {"method": method, "world": world, "noise": "real", "seed": seed,
             "policy_seed": policy_seed, "outcome": "goal" if goal else "timeout",
             "time_s": 5.0}  # fmt: skip
 
@@ -41,7 +42,7 @@ def expected_p() -> float:
 
 def test_the_paired_p_value_is_scipys_wilcoxon_on_the_differences() -> None:
     scores = paired_scores(constructed(), "d3dwa", "dwa1")
-    assert len(scores) == 16 and scores[("L0", "none", 0)] == (2 / 3, 1.0)
+    assert len(scores) == 16 and scores[("L0", "real", 0)] == (2 / 3, 1.0)
     test = paired_test(scores)
     assert test["p"] == pytest.approx(expected_p(), rel=1e-12) and 0.0 < test["p"] < 0.5
     assert test["wins"] + test["losses"] + test["ties"] == 16 and test["wins"] > test["losses"]
@@ -72,7 +73,7 @@ def test_pairing_by_layout_pools_the_evaluation_seeds(monkeypatch, capsys) -> No
     ]
     expected = float(stats.wilcoxon(d, alternative="greater", zero_method="wilcox").pvalue)
     scores = paired_scores(constructed(), "d3dwa", "dwa1", by_seed=False)
-    assert len(scores) == 8 and scores[("L0", "none", None)] == (5 / 6, 0.5)
+    assert len(scores) == 8 and scores[("L0", "real", None)] == (5 / 6, 0.5)
     assert paired_test(scores)["p"] == pytest.approx(expected, rel=1e-12)
     assert expected != pytest.approx(expected_p(), rel=1e-3)  # a different test, not a relabel
     rows = constructed()

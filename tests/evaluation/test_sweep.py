@@ -19,7 +19,7 @@ import pytest
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation import jobs as evaluation
-from d3dwa_bullet.evaluation.jobs import evaluate, row_log
+from d3dwa_bullet.evaluation.jobs import evaluate
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.report import eval_markdown
 from d3dwa_bullet.evaluation.stats import t_interval, wilson_interval
@@ -75,36 +75,31 @@ def test_unseen_layouts_come_from_outside_the_training_seed_range():
     assert UNSEEN_LAYOUT_SEED_BASE >= 2**31  # training draws generator seeds in [0, 2^31)
 
 
-def test_without_noise_only_the_random_choosers_draw_from_the_episode_seed(
-    one_second_world, tmp_path
-):
+def test_without_noise_only_the_random_choosers_draw_from_the_episode_seed(one_second_world):
     world = load_world(one_second_world)
-    jobs = [evaluation.Job(world, m, seed) for m in ("dwa3", "random") for seed in (0, 1)]
-    rows = {(r["method"], r["seed"]): r for r in evaluate(jobs, tmp_path, progress=False)}
-    logs = {k: row_log(tmp_path, r) for k, r in rows.items()}
+    # run one by one: evaluate runs a noise-free fixed method once (evaluation.repeats)
+    logs = {(m, seed): evaluation.run_job(evaluation.Job(world, m, seed)).log
+            for m in ("dwa3", "random") for seed in (0, 1)}  # fmt: skip
     assert np.array_equal(logs[("dwa3", 0)]["action"], logs[("dwa3", 1)]["action"])
     for k in ("true_x", "true_y", "v_cmd", "w_cmd"):
         assert np.array_equal(logs[("dwa3", 0)][k], logs[("dwa3", 1)][k]), k
     assert not np.array_equal(logs[("random", 0)]["action"], logs[("random", 1)]["action"])
 
 
-def test_the_page_says_when_noise_free_cells_count_one_episode_several_times(
+def test_the_page_says_when_noise_free_cells_ran_once_for_several_seeds(
     tiny_sweep, one_second_world
 ):
     _, rows, _ = tiny_sweep
-    once = sweep_markdown(rows, tiny_settings(one_second_world))
-    twice = sweep_markdown(rows, tiny_settings(one_second_world, seeds=2))
-    assert "runs the same episode" not in once
-    assert "runs the same episode at each of the 2 evaluation seeds" in twice
-    assert "count every world 2 times" in twice
+    note = "Deterministic without noise: run once per layout"
+    assert note not in sweep_markdown(rows, tiny_settings(one_second_world))
+    assert note in sweep_markdown(rows, tiny_settings(one_second_world, seeds=2))
+    random_only = tiny_settings(one_second_world, seeds=2, methods=("random",))
+    assert note not in sweep_markdown([], random_only)
     noise_free = [r for r in rows if r["noise"] == "none"]
     world = noise_free[0]["world"]
-    page = eval_markdown(noise_free, ["dwa1", "dwa3"], [world], [0, 1], "none")
-    assert "runs the same episode at each of the 2 evaluation seeds" in page
-    assert "same episode" not in eval_markdown(noise_free, ["dwa1", "dwa3"], [world], [0], "none")
-    assert "same episode" not in eval_markdown(
-        noise_free, ["dwa1", "dwa3"], [world], [0, 1], "real"
-    )
+    assert note in eval_markdown(noise_free, ["dwa1", "dwa3"], [world], [0, 1], "none")
+    assert note not in eval_markdown(noise_free, ["dwa1", "dwa3"], [world], [0], "none")
+    assert note not in eval_markdown(noise_free, ["dwa1", "dwa3"], [world], [0, 1], "real")
 
 
 def test_worlds_given_by_generated_name_are_not_filed_as_shipped():
@@ -233,7 +228,7 @@ def test_killed_sweep_resumes_without_loss_or_duplicates(sig, workers, one_secon
             "--worlds", one_second_world, "--layouts", "0", "--levels", "2", "--seeds", "2",
             "--profiles", "none,real", "--out", str(tmp_path), "--workers", str(workers),
             "--json"]  # fmt: skip
-    total = 2 * 2 * (1 + 8 + 1)
+    total = 2 * (2 * (8 + 1) + 1)  # noise-free baseline: deterministic, run once per layout
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     csv_path = tmp_path / "results.csv"
     workers_pids: list[int] = []
@@ -296,9 +291,9 @@ def test_cli_sweep_json_summary(one_second_world, tmp_path, capsys):
             str(tmp_path), "--workers", "1", "--json"]  # fmt: skip
     assert main(args) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["complete"] and out["episodes"] == 4
+    assert out["complete"] and out["episodes"] == 3  # the noise-free one once, not per seed
     points = [(s["axis"], s["x"], s["n"]) for s in out["summary"]]
-    assert points == [("lidar_range", 0.0, 2), ("lidar_range", 0.1, 2)]
+    assert points == [("lidar_range", 0.0, 1), ("lidar_range", 0.1, 2)]
     assert all(np.isfinite(s["rate_lo"]) for s in out["summary"])
     assert all(s["time_mean"] is None or np.isfinite(s["time_mean"]) for s in out["summary"])
 
