@@ -5,7 +5,7 @@ evaluation is resumed or extended, never shrunk or mixed: the command must list 
 (world, method, seed, noise) already in its results.csv (it may add more), with the same
 episode settings (rates, world files, policy); otherwise it is refused with a message that
 names the mismatch, so table.md and meta.json always describe exactly the rows of results.csv
-(see :func:`d3dwa_bullet.evaluation.results.check_same_run`). Two different worlds with one
+(see :func:`d3dwa_bullet.evaluation.same_run.check_same_run`). Two different worlds with one
 name are refused, naming both files (:func:`d3dwa_bullet.evaluation.jobs.check_distinct`), and
 ``--out`` is locked while the command writes it: a second eval into it is refused, naming the
 first one's pid (:mod:`d3dwa_bullet.dir_lock`).

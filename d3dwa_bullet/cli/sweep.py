@@ -2,7 +2,7 @@
 
 ``--out DIR`` is checked before any episode runs; an existing sweep directory is resumed or
 extended, never shrunk or mixed, as with ``d3dwa eval`` (see
-:func:`d3dwa_bullet.evaluation.results.check_same_run`).
+:func:`d3dwa_bullet.evaluation.same_run.check_same_run`).
 """
 
 from __future__ import annotations

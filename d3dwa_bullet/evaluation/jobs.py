@@ -37,7 +37,6 @@ from d3dwa_bullet.evaluation.results import (
     Key,
     appending_rows,
     check_results_dir,
-    check_same_run,
     drop_partial_row,
     load_log,
     order_results,
@@ -49,6 +48,7 @@ from d3dwa_bullet.evaluation.results import (
     with_sources,
     write_meta,
 )
+from d3dwa_bullet.evaluation.same_run import check_same_run
 from d3dwa_bullet.evaluation.scores import add_scores, needs_scores, score_cells
 from d3dwa_bullet.io import file_stem
 from d3dwa_bullet.loading import parse_json
@@ -181,7 +181,7 @@ def evaluate(
     rows is resumed; the rows are left in results.csv and not returned). Rows are appended as episodes finish; once every job
     is in, results.csv is rewritten in the order of jobs, whatever the backend. A directory
     whose rows these jobs would not resume or extend is refused before any episode runs
-    (ResultsError from :func:`~d3dwa_bullet.evaluation.results.check_same_run`), and so is
+    (ResultsError from :func:`~d3dwa_bullet.evaluation.same_run.check_same_run`), and so is
     one another process is writing (BusyError): the directory is locked
     (:mod:`d3dwa_bullet.dir_lock`) from before its first write to the return.
     """

@@ -14,7 +14,7 @@ from typing import Any
 
 from d3dwa_bullet.errors import CheckpointError, D3DWAError
 from d3dwa_bullet.evaluation.policy_runs import PolicyRun
-from d3dwa_bullet.evaluation.results import differences
+from d3dwa_bullet.evaluation.same_run import differences
 from d3dwa_bullet.learning.agents.policy_terms import checkpoint_terms
 from d3dwa_bullet.learning.training.config import TrainConfig, load_train_config
 from d3dwa_bullet.limits import MAX_NOTE_CHARS, MAX_NOTE_VALUE_CHARS, cut_text

@@ -23,7 +23,7 @@ from typing import Any
 
 from d3dwa_bullet.controllers import default_policy_path, one_policy
 from d3dwa_bullet.errors import CheckpointError, ConfigError
-from d3dwa_bullet.evaluation.results import differences
+from d3dwa_bullet.evaluation.same_run import differences
 from d3dwa_bullet.learning.agents.policy_terms import folder_terms
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.method_specs import needs_policy

@@ -21,7 +21,7 @@ to do and rewritten once it is complete, so a stale page never poses as the resu
 current job set. Every whole-file write is atomic (:mod:`d3dwa_bullet.io`).
 
 A run into a directory that already holds rows may resume it or extend it (more methods,
-worlds or seeds), never shrink or mix it: :func:`check_same_run` refuses a run whose jobs
+worlds or seeds), never shrink or mix it: :func:`~d3dwa_bullet.evaluation.same_run.check_same_run` refuses a run whose jobs
 leave out rows of results.csv (meta.json and the pages would then describe fewer rows than
 the file holds) or whose episodes would be computed otherwise than the rows already there
 (another episode config, world file, time limit, policy, or a policy's weights).
@@ -46,7 +46,7 @@ from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.columns import TYPED_COLUMNS, check_one_track
 from d3dwa_bullet.evaluation.repeats import Key, kept_keys
 from d3dwa_bullet.io import AppendFile, atomic_write_bytes, atomic_write_text, read_text
-from d3dwa_bullet.loading import load_json, parse_json
+from d3dwa_bullet.loading import load_json
 
 if TYPE_CHECKING:  # for annotations only: this module reads and writes files, runs nothing
     from d3dwa_bullet.episode import EpisodeResult
@@ -234,90 +234,6 @@ def check_results_dir(
             f"{out / 'results.csv'}: columns {header} were written by {kind!r}, this command "
             f"writes {list(fields)}; use another --out directory"
         )
-
-
-def check_same_run(
-    out: Path, keys: Sequence[Key], config: Any, settings: Mapping[str, Any]
-) -> None:
-    """ResultsError unless a run of jobs ``keys`` with ``config`` (an EpisodeConfig) and
-    ``settings`` resumes or extends the rows already in out/results.csv (see the module
-    docstring); the message names what differs. A directory without rows takes any run."""
-    rows = read_results(out)
-    if not rows:
-        return
-    wanted = set(keys)
-    extra = [row_key(r) for r in rows if row_key(r) not in wanted]
-    if extra:
-        parts = []
-        for i, name in enumerate(("worlds", "methods", "policy seeds", "seeds", "noise")):
-            listed = {k[i] for k in wanted}
-            absent = sorted({k[i] for k in extra} - listed, key=str)
-            if absent:
-                parts.append(f"{name} {', '.join(map(str, absent))}")
-        what = "; ".join(parts) or "other combinations of the worlds, methods and seeds listed"
-        raise ResultsError(
-            f"{out / 'results.csv'}: holds {len(extra)} episode(s) this command does not list "
-            f"({what}); list them too to extend that evaluation, or use another --out directory"
-        )
-    meta = read_meta(out)
-    here = parse_json(json.dumps(asdict(config), default=str), ResultsError, "episode config")
-    diffs = "; ".join(
-        f"{name} {old!r} there, {new!r} here"
-        for name, old, new in differences(meta.get("config", here), here)
-    )
-    if diffs:  # (a config without a newer field that is unset here is the same config)
-        raise ResultsError(
-            f"{out / 'meta.json'}: its episodes ran with another episode config ({diffs}); "
-            "use the same options to resume, or another --out directory"
-        )
-    before = meta.get("settings", {})
-    form, now = before.get("score_form"), settings.get("score_form")
-    if form is not None and now is not None and form != now:
-        raise ResultsError(
-            f"{out / 'meta.json'}: its rows were scored in form {form!r}, this version scores "
-            f"in form {now!r}; one directory holds one form: use another --out directory"
-        )
-    for key, option in EPISODE_SETTINGS.items():
-        if (key in before or key in settings) and before.get(key) != settings.get(key):
-            raise ResultsError(
-                f"{out / 'meta.json'}: its episodes ran with {option} {before.get(key)!r}, this "
-                f"command has {settings.get(key)!r}; use the same value to resume, or another "
-                "--out directory"
-            )
-    old, now = before.get("policy_digests", {}), settings.get("policy_digests", {})
-    changed = sorted(k for k in old.keys() & now.keys() if old[k] != now[k])
-    if changed:
-        raise ResultsError(
-            f"{out / 'meta.json'}: its {', '.join(changed)} episodes were driven by other "
-            "weights than the policy this command loads (retrained or replaced since); use "
-            "another --out directory"
-        )
-    old, now = before.get("method_sources", {}), settings.get("method_sources", {})
-    changed = sorted(k for k in old.keys() & now.keys() if old[k] != now[k])
-    if changed:
-        raise ResultsError(
-            f"{out / 'meta.json'}: method {changed[0]!r} came from {old[changed[0]]}, this "
-            f"command's from {now[changed[0]]}; one directory never mixes two sources under "
-            "one name: use another --out directory"
-        )
-    sources = dict(zip(before.get("worlds", []), before.get("world_sources", []), strict=False))
-    new = dict(zip(settings.get("worlds", []), settings.get("world_sources", []), strict=False))
-    for name in sorted(sources.keys() & new.keys()):
-        if sources[name] != new[name]:
-            raise ResultsError(
-                f"{out / 'meta.json'}: world {name!r} came from {sources[name]}, this command's "
-                f"from {new[name]}; use another --out directory"
-            )
-
-
-def differences(old: Any, new: Any, prefix: str = "") -> list[tuple[str, Any, Any]]:
-    """(dotted name, old value, new value) of each leaf where two JSON values differ."""
-    if isinstance(old, dict) and isinstance(new, dict):
-        out = []
-        for k in sorted(old.keys() | new.keys()):
-            out += differences(old.get(k), new.get(k), f"{prefix}{k}.")
-        return out
-    return [] if old == new else [(prefix.rstrip("."), old, new)]
 
 
 def drop_partial_row(path: Path) -> bool:

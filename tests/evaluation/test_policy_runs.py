@@ -12,7 +12,7 @@ from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.errors import CheckpointError, ConfigError, ResultsError
 from d3dwa_bullet.evaluation.jobs import Job, evaluate
 from d3dwa_bullet.evaluation.policy_runs import PolicyRun, method_runs, policy_digests
-from d3dwa_bullet.evaluation.results import check_same_run
+from d3dwa_bullet.evaluation.same_run import check_same_run
 from d3dwa_bullet.learning.agents.checkpoint import save_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY

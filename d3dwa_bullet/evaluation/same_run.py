@@ -1,0 +1,104 @@
+"""Is a command the same run as the rows already in its results directory?
+
+A run into a directory that already holds rows may resume it or extend it, never shrink or
+mix it (:mod:`d3dwa_bullet.evaluation.results` says why): :func:`check_same_run` names what
+differs (jobs left out, episode config, score form, episode settings, a policy's weights, a
+method's or a world's source).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation.repeats import Key
+from d3dwa_bullet.evaluation.results import EPISODE_SETTINGS, read_meta, read_results, row_key
+from d3dwa_bullet.loading import parse_json
+
+
+def check_same_run(
+    out: Path, keys: Sequence[Key], config: Any, settings: Mapping[str, Any]
+) -> None:
+    """ResultsError unless a run of jobs ``keys`` with ``config`` (an EpisodeConfig) and
+    ``settings`` resumes or extends the rows already in out/results.csv (see the module
+    docstring); the message names what differs. A directory without rows takes any run."""
+    rows = read_results(out)
+    if not rows:
+        return
+    wanted = set(keys)
+    extra = [row_key(r) for r in rows if row_key(r) not in wanted]
+    if extra:
+        parts = []
+        for i, name in enumerate(("worlds", "methods", "policy seeds", "seeds", "noise")):
+            listed = {k[i] for k in wanted}
+            absent = sorted({k[i] for k in extra} - listed, key=str)
+            if absent:
+                parts.append(f"{name} {', '.join(map(str, absent))}")
+        what = "; ".join(parts) or "other combinations of the worlds, methods and seeds listed"
+        raise ResultsError(
+            f"{out / 'results.csv'}: holds {len(extra)} episode(s) this command does not list "
+            f"({what}); list them too to extend that evaluation, or use another --out directory"
+        )
+    meta = read_meta(out)
+    here = parse_json(json.dumps(asdict(config), default=str), ResultsError, "episode config")
+    diffs = "; ".join(
+        f"{name} {old!r} there, {new!r} here"
+        for name, old, new in differences(meta.get("config", here), here)
+    )
+    if diffs:  # (a config without a newer field that is unset here is the same config)
+        raise ResultsError(
+            f"{out / 'meta.json'}: its episodes ran with another episode config ({diffs}); "
+            "use the same options to resume, or another --out directory"
+        )
+    before = meta.get("settings", {})
+    form, now = before.get("score_form"), settings.get("score_form")
+    if form is not None and now is not None and form != now:
+        raise ResultsError(
+            f"{out / 'meta.json'}: its rows were scored in form {form!r}, this version scores "
+            f"in form {now!r}; one directory holds one form: use another --out directory"
+        )
+    for key, option in EPISODE_SETTINGS.items():
+        if (key in before or key in settings) and before.get(key) != settings.get(key):
+            raise ResultsError(
+                f"{out / 'meta.json'}: its episodes ran with {option} {before.get(key)!r}, this "
+                f"command has {settings.get(key)!r}; use the same value to resume, or another "
+                "--out directory"
+            )
+    old, now = before.get("policy_digests", {}), settings.get("policy_digests", {})
+    changed = sorted(k for k in old.keys() & now.keys() if old[k] != now[k])
+    if changed:
+        raise ResultsError(
+            f"{out / 'meta.json'}: its {', '.join(changed)} episodes were driven by other "
+            "weights than the policy this command loads (retrained or replaced since); use "
+            "another --out directory"
+        )
+    old, now = before.get("method_sources", {}), settings.get("method_sources", {})
+    changed = sorted(k for k in old.keys() & now.keys() if old[k] != now[k])
+    if changed:
+        raise ResultsError(
+            f"{out / 'meta.json'}: method {changed[0]!r} came from {old[changed[0]]}, this "
+            f"command's from {now[changed[0]]}; one directory never mixes two sources under "
+            "one name: use another --out directory"
+        )
+    sources = dict(zip(before.get("worlds", []), before.get("world_sources", []), strict=False))
+    new = dict(zip(settings.get("worlds", []), settings.get("world_sources", []), strict=False))
+    for name in sorted(sources.keys() & new.keys()):
+        if sources[name] != new[name]:
+            raise ResultsError(
+                f"{out / 'meta.json'}: world {name!r} came from {sources[name]}, this command's "
+                f"from {new[name]}; use another --out directory"
+            )
+
+
+def differences(old: Any, new: Any, prefix: str = "") -> list[tuple[str, Any, Any]]:
+    """(dotted name, old value, new value) of each leaf where two JSON values differ."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        out = []
+        for k in sorted(old.keys() | new.keys()):
+            out += differences(old.get(k), new.get(k), f"{prefix}{k}.")
+        return out
+    return [] if old == new else [(prefix.rstrip("."), old, new)]
