@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 
@@ -14,8 +15,10 @@ from d3dwa_bullet.episode_metrics import (
     episode_score,
     path_score,
 )
+from d3dwa_bullet.evaluation.scores import score_cells
+from d3dwa_bullet.world.barn import barn_world
 from d3dwa_bullet.world.model import Cylinder, World
-from d3dwa_bullet.world.routes import reference_length, shortest_path
+from d3dwa_bullet.world.routes import official_length, reference_length, shortest_path
 
 # L = 2 m. Robot form at v_max 0.4 m/s: t_ref = 5 s, clip [5, 40] s.
 # BARN's form: t_opt = 2 / 2 = 1 s, clip [2, 8] s.
@@ -85,11 +88,25 @@ def test_bad_arguments_are_refused(args, word):
         path_score(*args)
 
 
-def test_reference_length_is_the_published_one_when_set_else_the_route():
+def test_the_robot_form_takes_the_route_and_the_official_form_the_published_path():
     post = World("post", "d", (0.0, 0.0, 0.0), (2.5, 0.0), (Cylinder((1.2, 0.0), 0.15),))
     route = reference_length(post)
     assert route == shortest_path(post).length and 2.5 < route < 3.0  # around the post
-    assert reference_length(World("b", "d", (0, 0, 0), (0, 10), reference_length=10.7)) == 10.7
+    assert official_length(post) == route  # no published path: the same L
+    published = replace(post, reference_length=3.7)  # a BARN-like grid path, longer
+    assert reference_length(published) == route and official_length(published) == 3.7
+
+
+def test_a_barn_world_scores_against_its_route_not_its_longer_grid_path():
+    world = barn_world(0)  # BARN's published path 13.59 m; the drivable route about 10.3 m
+    route = reference_length(world)
+    assert 10.0 <= route < 10.5 < world.reference_length == official_length(world)
+    # DWA III's noise-free time on BARN-0 (32.0 s): the robot form no longer sits at its clip
+    cells = score_cells("goal", 32.0, route, 0.4, official_length(world))
+    assert cells["score"] == pytest.approx(route / 0.4 / 32.0, abs=1e-5) and cells["score"] < 0.9
+    assert cells["score_barn"] == pytest.approx(
+        barn_score(True, 32.0, world.reference_length), abs=1e-6
+    )
 
 
 def test_without_a_route_for_the_footprint_the_straight_line_is_taken():

@@ -56,7 +56,7 @@ from d3dwa_bullet.method_specs import method_family
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.noise_config import NoiseConfig
 from d3dwa_bullet.world.model import World
-from d3dwa_bullet.world.routes import reference_length
+from d3dwa_bullet.world.routes import official_length, reference_length
 from randomization import episode_noise, load_profile
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9._=+-]")
@@ -96,8 +96,12 @@ class Job:
             summary
             | {"policy_seed": policy_seed_cell(self.policy_seed)}
             | score_cells(
-                summary["outcome"], summary["time_s"], reference_length(self.world), v_max
-            )
+                summary["outcome"],
+                summary["time_s"],
+                reference_length(self.world),
+                v_max,
+                official_length(self.world),
+            )  # fmt: skip
             | dict(self.columns)
         )
 
@@ -221,7 +225,11 @@ def _evaluate(
     keys = [j.key for j in jobs]
     check_same_run(out, listed, config, settings)
     if needs_scores(out, fields):  # a directory from before the score: its rows scored first
-        add_scores(out, fields, {j.world.name: reference_length(j.world) for j in jobs}, v_max)
+        worlds = {j.world.name: j.world for j in jobs}
+        add_scores(
+            out, fields, {n: reference_length(w) for n, w in worlds.items()}, v_max,
+            {n: official_length(w) for n, w in worlds.items()},
+        )  # fmt: skip
     todo = [j for j in jobs if j.key not in done]
     with open_backend(workers, ray_address, needed=bool(todo)) as run:
         (out / "logs").mkdir(parents=True, exist_ok=True)

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from d3dwa_bullet.cli.app import main
+from d3dwa_bullet.episode_metrics import SCORE_FORM
 from d3dwa_bullet.errors import D3DWAError
 from d3dwa_bullet.evaluation import jobs as evaluation
 from d3dwa_bullet.evaluation.jobs import evaluate
@@ -304,10 +305,10 @@ def test_the_sweep_page_scores_each_cell_and_marks_rows_from_before_the_score(
     _, rows, _ = tiny_sweep
     settings = tiny_settings(one_second_world)
     page = sweep_markdown(rows, settings)
-    assert "Score (kachaka-v1), mean [95 % interval]" in page and "BARN's official score" in page
+    assert f"Score ({SCORE_FORM}), mean [95 % interval]" in page and "BARN's official score" in page
     assert "; 0.00 |" in page  # one-second episodes: every one a timeout, every score 0
     assert "No score" not in page
     old = [r | {"score": None, "score_barn": None, "reference_length_m": None} for r in rows]
     unscored = sweep_markdown(old, settings)
     assert "No score: results from before the score" in unscored
-    assert "; 0.00" not in unscored and "Score (kachaka-v1), mean" not in unscored
+    assert "; 0.00" not in unscored and f"Score ({SCORE_FORM}), mean" not in unscored
