@@ -19,7 +19,6 @@ decision period, observation) are declared by the class that names it
 from __future__ import annotations
 
 import io
-import json
 import zipfile
 from pathlib import Path
 from typing import Any, ClassVar
@@ -28,6 +27,7 @@ import numpy as np
 
 from d3dwa_bullet.errors import ExternalMethodError
 from d3dwa_bullet.limits import MAX_DOCUMENT_BYTES, MAX_POLICY_BYTES
+from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.observation_kinds import observation_layout
 
@@ -67,10 +67,11 @@ def read_dqn_zip(path: str | Path) -> tuple[list[tuple[Any, Any]], int, int]:
     MAX_POLICY_BYTES.check(where, file.stat().st_size, "bytes", ExternalMethodError)
     try:
         with zipfile.ZipFile(file) as archive:
-            data = json.loads(_member(archive, "data", MAX_DOCUMENT_BYTES.value, where))
+            text = _member(archive, "data", MAX_DOCUMENT_BYTES.value, where)
             weights = _member(archive, "policy.pth", MAX_POLICY_BYTES.value, where)
-    except (zipfile.BadZipFile, json.JSONDecodeError, UnicodeDecodeError, OSError) as err:
+    except (zipfile.BadZipFile, UnicodeDecodeError, OSError) as err:
         raise ExternalMethodError(f"{where}: not a readable SB3 zip ({err})") from err
+    data = parse_json(text, ExternalMethodError, f"{where}: its data")
     if not isinstance(data, dict):
         raise ExternalMethodError(f"{where}: its data is not a JSON object")
     policy = data.get("policy_class", {})
