@@ -10,6 +10,9 @@ simulator, the replay and the robot's clamp then limit the accelerations as for 
 A call that raises or answers otherwise ends the run: ExternalMethodError, one line naming
 the method, the call, the step and what was wrong. A call that takes longer than the control
 period is counted (``overruns``, ``slowest_s``): a simulated episode does not wait for it.
+A call of ``choose`` or ``command`` longer than the method's budget (its class's ``budget_s``,
+default the control period) is kept (:meth:`ExternalController.late_call`): ``drive`` stops
+the robot on it.
 """
 
 from __future__ import annotations
@@ -37,12 +40,17 @@ class ExternalController(Controller):
     method: Any = None
     """The method's instance (:meth:`ExternalMethod.build`)."""
     period: float = SimParams().control_period
-    """The budget of one call, s: the control period."""
+    """The control period, s (a velocity planner's from its inputs)."""
+    budget_s: float | None = None
+    """The time one call may take in ``drive``, s (None: ``period``)."""
+    clock: Callable[[], float] = time.perf_counter
+    """What a call is timed by, s (tests inject theirs)."""
     overruns: int = 0
     """Calls this episode that took longer than ``period``."""
     slowest_s: float = 0.0
     """The slowest call this episode, s."""
     _step: int = field(default=0, init=False, repr=False)
+    _late: str | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.fixed is None:  # a chooser: its index in place of a policy's
@@ -54,19 +62,33 @@ class ExternalController(Controller):
         super().reset(episode_seed)
         self.overruns, self.slowest_s, self._step = 0, 0.0, 0
         self._call("reset", self.method.reset, int(episode_seed))
+        self._late = None  # reset() is not on the clock: the robot is not moving yet
+
+    def late_call(self) -> ExternalMethodError | None:
+        """The refusal of the latest ``choose`` or ``command`` call if it took longer than
+        the budget (one line: the method, the call, its time, the budget); None otherwise."""
+        return None if self._late is None else ExternalMethodError(self._late)
 
     def _call(self, what: str, fn: Callable[..., Any], *args: Any) -> Any:
-        start = time.perf_counter()
+        start = self.clock()
         try:
             out = fn(*args)
         except Exception as err:  # the method's own code: whatever it raises is refused
             raise ExternalMethodError(
                 f"method {self.name!r}: {what}() raised at step {self._step}: {_said(err)}"
             ) from err
-        elapsed = time.perf_counter() - start
+        elapsed = self.clock() - start
         self.slowest_s = max(self.slowest_s, elapsed)
         if elapsed > self.period:
             self.overruns += 1
+        budget = self.period if self.budget_s is None else self.budget_s
+        self._late = None
+        if elapsed > budget:
+            declared = "its budget_s" if self.budget_s is not None else "the control period"
+            self._late = (
+                f"method {self.name!r}: {what}() took {elapsed:.3f} s at step {self._step}, "
+                f"over its budget of {budget:g} s ({declared})"
+            )
         return out
 
     def _refuse(self, what: str, out: Any, why: str) -> ExternalMethodError:
@@ -114,10 +136,11 @@ def external_controller(method: ExternalMethod) -> ExternalController:
     if method.kind == "velocity planner":
         return ExternalController(
             method.name, fixed=NO_PARAMETERS, method=instance, origin=method.origin,
-            source=f"external velocity planner from {method.origin}",
+            source=f"external velocity planner from {method.origin}", budget_s=method.budget_s,
         )  # fmt: skip
     held = f" (one decision every {method.hold} control steps)" if method.hold > 1 else ""
     return ExternalController(
         method.name, actions=method.actions, hold=method.hold, observation=method.observation,
         method=instance, origin=method.origin, source=f"external parameter chooser from {method.origin}{held}",
+        budget_s=method.budget_s,
     )  # fmt: skip

@@ -16,6 +16,11 @@ the entry point group :data:`ENTRY_POINT_GROUP`. Its class declares ``interface_
 it returns is checked (a finite index in its set, a finite command within the limits) and a
 method that raises or answers otherwise ends the run, refused in one line.
 
+Either kind may declare ``budget_s``: the time one ``choose`` or ``command`` call may take, s
+(a number > 0; default the control period). In ``d3dwa drive`` the first call over it stops
+the robot (a zero command in place of its answer) and ends the run; in simulation a call over
+the control period is counted, never waited for.
+
 Pure: the standard library and numpy; the method's own module is imported only when it runs
 (:mod:`d3dwa_bullet.external.resolve`).
 """

@@ -15,6 +15,8 @@ from __future__ import annotations
 import hashlib
 import importlib
 import inspect
+import math
+import numbers
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
@@ -54,6 +56,9 @@ class ExternalMethod:
     hold: int = 1
     """A chooser's decision period, control steps."""
     observation: str = "paper"
+    budget_s: float | None = None
+    """The time one call may take in ``drive``, s (its class's ``budget_s``; None: the
+    control period); a call over it stops the robot."""
 
     def build(self) -> Any:
         """A new instance; ExternalMethodError if the constructor raises."""
@@ -178,8 +183,9 @@ def _declared(name: str, cls: Any, module: str, origin: str) -> ExternalMethod:
             f"{', '.join(c for c in ('reset', *KINDS) if callable(getattr(cls, c, None))) or 'none'}"
         )
     kind = KINDS[calls[0]]
+    budget = _budget(name, cls)
     if kind == "velocity planner":
-        return ExternalMethod(name, kind, cls, module, origin)
+        return ExternalMethod(name, kind, cls, module, origin, budget_s=budget)
     actions = getattr(cls, "actions", None)
     if not any(actions == a for a in REFERENCE.values()):
         sizes = " or ".join(str(a.size) for a in REFERENCE.values())
@@ -200,7 +206,20 @@ def _declared(name: str, cls: Any, module: str, origin: str) -> ExternalMethod:
             f"method {name!r}: observation {observation!r:.40} is not one of "
             f"{', '.join(OBSERVATION_KINDS)}"
         )
-    return ExternalMethod(name, kind, cls, module, origin, actions, hold, observation)
+    return ExternalMethod(name, kind, cls, module, origin, actions, hold, observation, budget)
+
+
+def _budget(name: str, cls: Any) -> float | None:
+    """The class's ``budget_s`` (None when it declares none), a number of seconds > 0."""
+    budget = getattr(cls, "budget_s", None)
+    if budget is None:
+        return None
+    real = isinstance(budget, numbers.Real) and not isinstance(budget, bool)
+    if not real or not 0 < float(budget) < math.inf:
+        raise ExternalMethodError(
+            f"method {name!r}: budget_s {budget!r:.40} is not a number of seconds > 0"
+        )
+    return float(budget)
 
 
 def external_floors(method: ExternalMethod) -> tuple[str, ...]:

@@ -12,8 +12,10 @@ within the goal tolerance, timeout after ``time_limit * control_hz`` commands. E
 is held to the contract the robot's sensors started with (``safety.ScanContract``,
 ``safety.OdometryCheck``): a blind scan is not decided on (a zero command holds the robot
 still), a few in a row, a scan of another layout or odometry that makes no physical sense
-end the run. Every way out (those three, a stale, missing or broken reading, a gRPC error
-or deadline, any exception, Ctrl-C, the watchdog) ends in ``set_robot_stop``.
+end the run. A method from outside the package whose call took longer than its budget
+(``external.guard``) is not obeyed: a zero command goes out in place of its late one, then the
+run ends. Every way out (those, a stale, missing or broken reading, a gRPC error or deadline,
+any exception, Ctrl-C, the watchdog) ends in ``set_robot_stop``.
 """
 
 from __future__ import annotations
@@ -29,7 +31,8 @@ import numpy as np
 
 from d3dwa_bullet.episode import EpisodeConfig, plan_from
 from d3dwa_bullet.episode_metrics import posture_displacement, trajectory_length
-from d3dwa_bullet.errors import ConfigError, ScanError
+from d3dwa_bullet.errors import ConfigError, ExternalMethodError, ScanError
+from d3dwa_bullet.external.guard import ExternalController
 from d3dwa_bullet.geometry import body_clearance_to_points, wrap_angle
 from d3dwa_bullet.live.link import KachakaLink, Reading
 from d3dwa_bullet.live.safety import (
@@ -192,8 +195,9 @@ def drive(
     map (:func:`check_goal_on_map`). Then every reading is checked against the first scan's
     contract (``safety.ScanContract``: ScanError) and for sane odometry
     (``safety.OdometryCheck``: RobotLinkError). result: filled in place (pass one to keep
-    what a run that raises did). RobotLinkError on a lost, late or stale robot; the
-    exception of any other failure, after the stop.
+    what a run that raises did). RobotLinkError on a lost, late or stale robot;
+    ExternalMethodError on an external method's call over its budget, after the zero command
+    sent in its place; the exception of any other failure, after the stop.
     """
     out = result if result is not None else DriveResult()
     watchdog = Watchdog(settings.watchdog_s, link.stop)
@@ -262,10 +266,14 @@ def _loop(
             out.outcome = "timeout"
         if out.outcome is not None:
             return
+        late = None
         if blind is None:
             decided = _decide(pipeline, reading, mount, goal)
             assert decided.cmd is not None
             command = settings.limits.clamp(*decided.cmd)
+            late = _late_call(pipeline)
+            if late is not None:  # a late command acts on an old scan: stop in its place
+                command = (0.0, 0.0)
         else:  # never decide on what the robot cannot see: hold still
             decided, command = _hold(reading), (0.0, 0.0)
         watchdog.send(link.command, *command)
@@ -278,6 +286,8 @@ def _loop(
             on_step(reading, decided, command)
         if on_progress is not None:
             on_progress(out.steps, distance, command, latency)
+        if late is not None:
+            raise late
         reading = None
         if not settings.lockstep:
             deadline = _pace(deadline, period, interrupted)
@@ -301,6 +311,13 @@ def _decide(pipeline: ReplayPipeline, reading: Reading, mount: Pose2D, goal: np.
         return pipeline(step)
     except SkipScan as err:
         raise ScanError(f"cannot decide at stamp {step.t_ns} ns: {err.reason}") from err
+
+
+def _late_call(pipeline: ReplayPipeline) -> ExternalMethodError | None:
+    """The refusal of an external method's call over its budget this step (None: in time,
+    or a built-in method, which has no budget)."""
+    controller = pipeline.controller
+    return controller.late_call() if isinstance(controller, ExternalController) else None
 
 
 def _hold(reading: Reading) -> StepOutput:

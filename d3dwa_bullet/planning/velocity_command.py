@@ -29,7 +29,7 @@ class PlannerInputs:
     float64 estimated [x m, y m, yaw rad] in the world (odometry) frame; velocity: (2,)
     float64 estimated [v m/s, w rad/s]; goal: (2,) float64 goal in base_link, m; limits:
     the robot's velocity and acceleration limits; control_period: s, the time one command
-    is held (and the budget of one call).
+    is held (and the budget of one call, unless the method declares its own ``budget_s``).
     """
 
     points: np.ndarray

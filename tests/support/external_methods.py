@@ -181,3 +181,64 @@ class LookThenStill(Straight):
     def command(self, inputs) -> tuple[float, float]:
         self.calls += 1
         return 0.0, (1.0 if self.calls <= 40 else 0.0)
+
+
+class ManualClock:
+    """A clock that moves only when told, s: inject it as an ExternalController's ``clock``
+    and a call takes exactly what the method adds, whatever the machine does."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+#: The clock the budgeted methods below take their time on.
+CLOCK = ManualClock()
+
+
+class OverBudget(Straight):
+    """A velocity planner declaring a 50 ms budget whose 3rd command takes ``takes`` s on
+    CLOCK (every other call takes none)."""
+
+    budget_s = 0.05
+    takes = 0.08
+
+    def reset(self, episode_seed: int) -> None:
+        self.calls = 0
+
+    def command(self, inputs) -> tuple[float, float]:
+        self.calls += 1
+        if self.calls == 3:
+            CLOCK.now += self.takes
+        return super().command(inputs)
+
+
+class InBudget(OverBudget):
+    """The same, its 3rd command within the budget."""
+
+    takes = 0.04
+
+
+class LateChooser(Zero):
+    """A chooser with no declared budget (the control period) whose 2nd call takes 0.15 s
+    on CLOCK."""
+
+    def reset(self, episode_seed: int) -> None:
+        super().reset(episode_seed)
+        self.calls = 0
+
+    def choose(self, obs: np.ndarray) -> int:
+        self.calls += 1
+        if self.calls == 2:
+            CLOCK.now += 0.15
+        return super().choose(obs)
+
+
+class NoTime(Straight):
+    budget_s = 0.0
+
+
+class TextBudget(Straight):
+    budget_s = "0.1"
