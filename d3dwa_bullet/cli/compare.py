@@ -43,6 +43,8 @@ from d3dwa_bullet.evaluation.margins import (
     check_margin,
     option_value,
 )
+from d3dwa_bullet.world.barn import barn_index
+from d3dwa_bullet.world.barn_difficulty import barn_tercile_group
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -97,7 +99,9 @@ def _groups_of(row: dict[str, Any], shipped: dict[str, str]) -> list[str]:
     noise = row["noise"]
     if "layout" in row:  # a sweep's row
         return [f"{row['layout']} ({noise})", f"all layouts ({noise})"]
-    return [f"{shipped.get(row['world'], 'custom')} ({noise})", f"all worlds ({noise})"]
+    barn = barn_index(row["world"])  # a BARN world of an eval: its difficulty tercile
+    group = shipped.get(row["world"], "custom") if barn is None else barn_tercile_group(barn)
+    return [f"{group} ({noise})", f"all worlds ({noise})"]
 
 
 def _side(out: Path, method: str, warn: bool = True) -> tuple[list[dict[str, Any]], str, bool]:

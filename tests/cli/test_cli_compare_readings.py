@@ -11,6 +11,8 @@ import d3dwa_bullet.cli.compare as compare
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.evaluation.paired import paired_scores
 from d3dwa_bullet.evaluation.readings import reading_of
+from d3dwa_bullet.world.barn import barn_index
+from d3dwa_bullet.world.barn_difficulty import barn_tercile_group
 from tests.support.results_logs import write_results
 
 
@@ -141,3 +143,13 @@ def test_results_from_before_the_score_read_on_success_alone(monkeypatch, capsys
         "score and BARN official score: no score: results from before the score; success reads "
         "alone."
     ]
+
+
+def test_an_eval_of_barn_worlds_is_compared_per_difficulty_tercile(tmp_path, capsys):
+    worlds = ["BARN-0", "BARN-6", "BARN-12"]
+    out = results_dir(tmp_path / "barn", worlds)
+    assert main(["compare", str(out), "--methods", "dwa3,dwa1"]) == 0
+    printed = capsys.readouterr().out
+    groups = {barn_tercile_group(barn_index(w)) for w in worlds}
+    assert all(f"| {g} (real) |" in printed for g in groups)
+    assert "| custom (real) |" not in printed
