@@ -92,7 +92,7 @@ def eval_markdown(
         for key, source in (renamed or {}).items()
     )
     return (
-        f"# {title or 'Evaluation: ' + ', '.join(worlds)}\n\n"
+        f"# {title or 'Evaluation: ' + world_span(worlds)}\n\n"
         f"{run_notes(recovery, policy_notes, scan_filter)}"
         f"Noise profile: `{noise}`; evaluation seeds: {span}.\n\n"
         f"{repeats_note(len(seeds), methods, noise)}"
@@ -116,6 +116,18 @@ def eval_markdown(
         + paper_table(rows, methods, worlds)
         + barn_section(rows, methods, [noise], lambda r: r["noise"])
     )
+
+
+TITLE_WORLDS = 8
+"""Worlds a page's title names one by one; more are counted (a BARN split has 50 or 250)."""
+
+
+def world_span(worlds: Sequence[str]) -> str:
+    """The worlds of a page's title: each name, or for more than TITLE_WORLDS the count and
+    the first and last."""
+    if len(worlds) <= TITLE_WORLDS:
+        return ", ".join(worlds)
+    return f"{len(worlds)} worlds, {worlds[0]} to {worlds[-1]}"
 
 
 def floors_section(rows: Sequence[dict[str, Any]], methods: Sequence[str]) -> str:

@@ -13,7 +13,7 @@ import pytest
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation import jobs as evaluation
-from d3dwa_bullet.evaluation.report import write_report, write_table_page
+from d3dwa_bullet.evaluation.report import world_span, write_report, write_table_page
 from d3dwa_bullet.evaluation.results import CSV_FIELDS
 from scripts import reproduce_tables
 
@@ -145,3 +145,9 @@ def test_reproduce_tables_writes_both_table_pages(one_second_world, tmp_path):
     table1 = (tmp_path / "tables" / "table1.md").read_text()
     assert table1.startswith("# Table I analogue") and "| DWA I (1,1,2) |" in table1
     assert (tmp_path / "results" / "table2" / "report.md").exists()
+
+
+def test_a_page_of_many_worlds_counts_them_in_its_title():
+    assert world_span(["R1", "R2"]) == "R1, R2"
+    challenge = [f"BARN-{i}" for i in range(0, 300, 6)]
+    assert world_span(challenge) == "50 worlds, BARN-0 to BARN-294"
