@@ -68,8 +68,18 @@ def run_metadata(
         "decision_steps": c.decision_steps,  # a policy holds each action this many steps
         "recovery": c.recovery,  # the layer it trained inside (run it with --recovery so)
         "scan_filter": c.scan_filter,  # the filter it trained behind (run it with --scan-filter so)
+        **barn_metadata(c),
         **dict(extra or {}),
     }
+
+
+def barn_metadata(config: TrainConfig) -> dict[str, Any]:
+    """``{"barn": {"split": ..., "ids": [...]}}``: the BARN worlds a run trains on (their numbers,
+    in ``barn_ids`` order), so that a policy trained on them can be told apart; {} when
+    ``barn_split`` is 'none' (the meta of earlier policies is unchanged)."""
+    if config.barn_split == "none":
+        return {}
+    return {"barn": {"split": config.barn_split, "ids": list(config.barn_ids)}}
 
 
 def save_latest(

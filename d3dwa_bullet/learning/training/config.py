@@ -36,6 +36,7 @@ from d3dwa_bullet.method_specs import LEARNED, method_observation
 from d3dwa_bullet.params import RewardParams, recovery_params
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.observation_kinds import check_observation_kind, observation_layout
+from d3dwa_bullet.world.barn import barn_name, barn_split_ids
 
 #: Reward scale by agent family: the D3QN uses the baseline magnitudes / 100 (paper).
 DEFAULT_REWARD_SCALE = {"d3qn": 0.01, "dqdwa": 1.0}
@@ -53,6 +54,13 @@ class TrainConfig:
     """Training worlds (names or files); the unseen and real groups are refused."""
     generators: tuple[str, ...] = ("R1-style", "R2-style", "R3-style")
     """Generator styles whose fresh random layouts are trained on."""
+    barn_split: str = "none"
+    """BARN split whose worlds are added to ``worlds`` as training material: 'none' (off, the
+    default) or 'train' (250 worlds; the 50 of 'challenge' are never trained or validated on)."""
+    barn_worlds: int = len(barn_split_ids("train"))
+    """How many of the split's worlds are trained on, 1..250: the ``barn_ids`` property's
+    fixed, seed-independent order takes k evenly spaced ones (positions floor(j * 250 / k) of
+    the ascending split, j = 0..k-1), so k = 5 is nested in k = 50 and k = 250 (all)."""
     generator_prob: float = 0.3
     """Base probability that an episode uses a generated layout instead of a world."""
     noise: tuple[str, ...] = ("none",)
@@ -184,6 +192,21 @@ class TrainConfig:
         return observation_layout(str(self.observation))
 
     @property
+    def barn_ids(self) -> tuple[int, ...]:
+        """The BARN world numbers trained on (see ``barn_worlds``); () when ``barn_split`` is
+        'none'."""
+        if self.barn_split == "none":
+            return ()
+        members = barn_split_ids(self.barn_split)
+        n, k = len(members), int(self.barn_worlds)
+        return tuple(members[j * n // k] for j in range(k))
+
+    @property
+    def training_worlds(self) -> tuple[str, ...]:
+        """``worlds`` followed by the BARN worlds of ``barn_ids`` (names ``BARN-<i>``)."""
+        return self.worlds + tuple(barn_name(i) for i in self.barn_ids)
+
+    @property
     def reward_params(self) -> RewardParams:
         """The reward of the run (the paper's, scaled, unless a stall penalty is set)."""
         try:
@@ -275,7 +298,7 @@ def make_env(
             episode_config=EpisodeConfig(scan_filter=config.scan_filter),
         )
     return D3DWAEnv(
-        worlds=config.worlds,
+        worlds=config.training_worlds,
         generators=config.generators,
         generator_prob=config.generator_prob if config.generators else None,
         noise=config.noise,

@@ -27,6 +27,7 @@ from d3dwa_bullet.limits import (
 )
 from d3dwa_bullet.params import RECOVERY_KINDS
 from d3dwa_bullet.planning.scan_filter import SCAN_FILTERS
+from d3dwa_bullet.world.barn import barn_split_ids
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
 from d3dwa_bullet.world.registry import world_names
 from randomization.profiles import load_profile
@@ -36,6 +37,8 @@ if TYPE_CHECKING:  # the config imports these checks
 
 CURRICULA = ("uniform", "adaptive")
 KEEP = ("best", "final")
+#: Values of ``TrainConfig.barn_split``: off, or BARN's train split (never ``challenge``).
+BARN_TRAIN_SPLITS = ("none", "train")
 VECTOR_MODES = ("async", "sync")
 
 
@@ -102,7 +105,8 @@ def check_fields(config: TrainConfig) -> None:
             f"TrainConfig.init_policy must be a policy folder or method name, "
             f"got {config.init_policy!r}"
         )
-    if not config.worlds and not config.generators:
+    check_barn(config)
+    if not config.training_worlds and not config.generators:
         raise ConfigError("TrainConfig: give at least one training world or generator style")
     if config.noise_probs and len(config.noise_probs) != len(config.noise):
         raise ConfigError(
@@ -124,6 +128,24 @@ def check_fields(config: TrainConfig) -> None:
     for name in _distinct(config.noise):
         _check_profile("noise", name)
     _check_profile("eval_noise", config.eval_noise)
+
+
+def check_barn(config: TrainConfig) -> None:
+    """ConfigError unless ``barn_split`` is 'none' or 'train' and ``barn_worlds`` is within
+    the split's size (the challenge split is evaluation only)."""
+    if config.barn_split not in BARN_TRAIN_SPLITS:
+        why = " (challenge is evaluation only)" if config.barn_split == "challenge" else ""
+        raise ConfigError(
+            f"TrainConfig.barn_split must be one of {BARN_TRAIN_SPLITS}{why}, "
+            f"got {config.barn_split!r}"
+        )
+    size = len(barn_split_ids("train"))
+    count = config.barn_worlds
+    if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= size:
+        raise ConfigError(
+            f"TrainConfig.barn_worlds must be in [1, {size}] (the train split's size), "
+            f"got {config.barn_worlds!r}"
+        )
 
 
 def _distinct(values: Any) -> list[Any]:
