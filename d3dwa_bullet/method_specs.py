@@ -57,6 +57,11 @@ HOLD_MARK = "@"
 SHIPPED_DECISION_STEPS = 10
 #: The reference methods held for the shipped policies' decision period.
 HELD_REFERENCE = tuple(f"{r}{HOLD_MARK}{SHIPPED_DECISION_STEPS}" for r in REFERENCE)
+#: The suffix of a learned method trained on BARN's ``train`` split (issue 56): ``d3dwa-barn`` is
+#: ``d3dwa``'s learner and action set, trained on BARN worlds instead of TS1-TS4 and R-style
+#: layouts (configs/d3dwa-barn.yaml; docs/design.md#barn-training). Beside the shipped methods,
+#: never instead of them; its policies ship under policies/<name>/.
+BARN_MARK = "-barn"
 #: Learned methods and the action set their policy must have.
 LEARNED: dict[str, ActionSet] = {
     "dqdwa": ACTIONS_WEIGHTS_ONLY,
@@ -64,6 +69,9 @@ LEARNED: dict[str, ActionSet] = {
     "d3dwa": ACTIONS_FULL,
     "d3dwa-dr": ACTIONS_FULL,
     "d3dwa-history-dr": ACTIONS_FULL,
+    f"d3dwa-weights{BARN_MARK}": ACTIONS_WEIGHTS_ONLY,
+    f"d3dwa{BARN_MARK}": ACTIONS_FULL,
+    f"d3dwa-dr{BARN_MARK}": ACTIONS_FULL,
 }
 #: The observation kind a learned method's policy reads when it is not the paper's 12-d state
 #: (``planning.observation_kinds``). ``d3dwa-history-dr``, beyond the paper and beside
@@ -98,6 +106,9 @@ LABELS = {
     "d3dwa": "D3DWA",
     "d3dwa-dr": "D3DWA (randomised)",
     "d3dwa-history-dr": "D3DWA (randomised, 1 s history)",
+    "d3dwa-barn": "D3DWA (BARN-trained)",
+    "d3dwa-weights-barn": "D3DWA (w/o horizon, BARN-trained)",
+    "d3dwa-dr-barn": "D3DWA (randomised, BARN-trained)",
 }
 
 
@@ -185,6 +196,14 @@ def method_hold(name: str) -> int:
     period; 1 for the others (a learned policy's own period is recorded in its files)."""
     ref = reference_of(check_method(name))
     return 1 if ref is None else ref[1]
+
+
+def barn_twin(name: str) -> str | None:
+    """The shipped method a BARN-trained one shares its learner and action set with
+    (``d3dwa-barn`` -> ``d3dwa``); None for any other method."""
+    if name in LEARNED and name.endswith(BARN_MARK):
+        return name.removesuffix(BARN_MARK)
+    return None
 
 
 def floors_of(name: str) -> tuple[str, str]:

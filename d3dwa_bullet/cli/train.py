@@ -14,6 +14,10 @@ from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.method_specs import LEARNED
 from d3dwa_bullet.resources import configs_dir
 from d3dwa_bullet.seed_dirs import parse_seeds
+from d3dwa_bullet.world.barn import barn_split_ids
+
+#: BARN's train split's size: the bound of --barn-worlds.
+BARN_TRAIN_SIZE = len(barn_split_ids("train"))
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -35,6 +39,13 @@ def add_train_arguments(p: argparse.ArgumentParser) -> None:
         "--total-steps", type=int, help="override total_steps (may extend a run on --resume)"
     )
     p.add_argument("--seed", type=int, help="override the config's seed")
+    p.add_argument(
+        "--barn-worlds",
+        type=int,
+        metavar="K",
+        help="override barn_worlds: train on K of BARN's 250 train worlds, evenly spaced and "
+        "nested (5 in 50 in 250: the diversity curve); the config must set barn_split: train",
+    )
     p.add_argument(
         "--seeds",
         help="train every seed of the config into OUT/seed-<k>/ (e.g. 0-4 or 0,3,7); "
@@ -64,6 +75,11 @@ def cmd_train(args: argparse.Namespace) -> int:
         raise ConfigError(f"--total-steps must be >= 1, got {args.total_steps}")
     if args.total_steps is not None:
         MAX_TOTAL_STEPS.check("--total-steps", args.total_steps, "steps")
+    if args.barn_worlds is not None and not 1 <= args.barn_worlds <= BARN_TRAIN_SIZE:
+        raise ConfigError(
+            f"--barn-worlds must be in [1, {BARN_TRAIN_SIZE}] (BARN's train split), "
+            f"got {args.barn_worlds}"
+        )
     if args.n_envs is not None and args.n_envs < 0:
         raise ConfigError(f"--n-envs must be >= 1 (or 0: one per core), got {args.n_envs}")
     if args.n_envs:
@@ -88,6 +104,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         "total_steps": args.total_steps,
         "seed": args.seed,
         "n_envs": args.n_envs,
+        "barn_worlds": args.barn_worlds,
     }
     if args.resume and not args.out:
         raise ConfigError("--resume needs --out DIR (the run to continue)")
@@ -160,7 +177,11 @@ def _train_seeds(args: argparse.Namespace) -> int:
     from d3dwa_bullet.learning.training.seeds import SeedOutcome, train_seeds
 
     config = load_train_config(
-        args.config, method=args.method, total_steps=args.total_steps, n_envs=args.n_envs
+        args.config,
+        method=args.method,
+        total_steps=args.total_steps,
+        n_envs=args.n_envs,
+        barn_worlds=args.barn_worlds,
     )
     check_run_limits(config)
     quiet = args.no_progress or args.json

@@ -17,7 +17,7 @@ from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Circle, Patch, Polygon  # noqa: E402
 
 from d3dwa_bullet.io import atomic_savefig  # noqa: E402
-from d3dwa_bullet.method_specs import METHODS, method_label, reference_of  # noqa: E402
+from d3dwa_bullet.method_specs import METHODS, barn_twin, method_label, reference_of  # noqa: E402
 from d3dwa_bullet.params import RECOVERY_BEHAVIOURS  # noqa: E402
 from d3dwa_bullet.world.model import Cylinder, World, obstacle_outline  # noqa: E402
 
@@ -210,7 +210,7 @@ REFERENCE_COLOURS = {"random": (0.45, 0.45, 0.45, 1.0), "random-weights": (0.72,
 """The colours of the reference methods: greys, floors rather than contenders (a held one a
 darker grey than its every-step draw)."""
 HELD_DARKER = 0.2
-_COLOURED = tuple(m for m in METHODS if reference_of(m) is None)
+_COLOURED = tuple(m for m in METHODS if reference_of(m) is None and barn_twin(m) is None)
 CONTENDER_SLOTS = (0, 1, 2, 3, 4, 5, 6, 8, 9)
 """The tab10 colours a contender may take: all but its grey (slot 7), which the eighth
 contender took beside the reference methods' greys once the method list grew."""
@@ -226,15 +226,19 @@ def _reference_colour(method: str) -> tuple | None:
 
 
 def method_colours(methods: Sequence[str]) -> dict[str, tuple]:
-    """A stable colour per method name: a reference method grey, every other one its slot
-    in the order of d3dwa_bullet.method_specs.METHODS (reference methods left out, so adding one
-    changes no other method's colour)."""
+    """A stable colour per method name: a reference method grey, a BARN-trained one its twin's
+    colour lightened, every other one its slot in the order of d3dwa_bullet.method_specs.METHODS
+    (reference methods left out, so adding one changes no other method's colour)."""
     palette = [plt.get_cmap("tab10")(k) for k in CONTENDER_SLOTS]
     n = len(palette)
-    return {
-        m: _reference_colour(m) or palette[_COLOURED.index(m) % n if m in _COLOURED else i % n]
-        for i, m in enumerate(methods)
-    }
+
+    def colour(i: int, m: str) -> tuple:
+        twin = barn_twin(m)
+        if twin is not None:  # the twin's hue, halfway to white: the pair reads as one family
+            return (*(0.5 + 0.5 * c for c in colour(i, twin)[:3]), 1.0)
+        return palette[_COLOURED.index(m) % n if m in _COLOURED else i % n]
+
+    return {m: _reference_colour(m) or colour(i, m) for i, m in enumerate(methods)}
 
 
 def _save(fig: plt.Figure, path: str | os.PathLike[str]) -> Path:

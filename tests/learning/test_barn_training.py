@@ -12,7 +12,9 @@ from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNConfig
 from d3dwa_bullet.learning.training import TrainConfig, load_train_config, make_env, train
-from d3dwa_bullet.world.barn import barn_split_ids
+from d3dwa_bullet.method_specs import LEARNED, barn_twin
+from d3dwa_bullet.resources import configs_dir
+from d3dwa_bullet.world.barn import barn_name, barn_split_ids
 from tests.support.config_refusal import refused_at_load
 
 BASE = "method: d3dwa\ngenerators: []\nn_envs: 1\n"
@@ -90,10 +92,17 @@ def test_barn_alone_is_training_material(tmp_path):
         ("barn_split: train\neval_worlds: [BARN-1, BARN-6]\n", ("eval_worlds", "BARN-6")),
         ("barn_split: train\neval_worlds: [BARN-0]\n", ("eval_worlds", "barn-challenge")),
         ("worlds: [BARN-12]\n", ("worlds", "BARN-12", "barn-challenge")),
+        ("barn_worlds: 5\n", ("barn_worlds", "5", "barn_split is 'none'")),
     ],
 )
 def test_a_bad_barn_field_is_refused_at_load_naming_field_and_file(tmp_path, extra, names):
     refused_at_load(_config_file(tmp_path, extra), names)
+
+
+def test_a_barn_named_method_off_barn_is_refused_at_load(tmp_path):
+    path = tmp_path / "c.yaml"
+    path.write_text(BASE.replace("method: d3dwa", "method: d3dwa-barn"))
+    refused_at_load(path, ("barn_split", "'d3dwa-barn'", "must be 'train'"))
 
 
 def test_validation_on_train_split_worlds_is_allowed(tmp_path):
@@ -111,6 +120,36 @@ def test_train_refuses_a_bad_barn_field_with_exit_2_before_any_work(tmp_path, ca
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "barn_" in err and str(path) in err, err
     assert not out.exists()
+
+
+@pytest.mark.parametrize(("count", "why"), [("0", "got 0"), ("251", "got 251")])
+def test_train_refuses_a_diversity_count_beyond_the_split_in_one_line(tmp_path, capsys, count, why):
+    path = _config_file(tmp_path, "barn_split: train\n")
+    out = tmp_path / "run"
+    assert main(["train", "--config", str(path), "--out", str(out), "--barn-worlds", count]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "--barn-worlds" in err and "[1, 250]" in err and why in err
+    assert not out.exists()
+
+
+def test_the_barn_worlds_flag_sets_the_count_of_the_config(tmp_path):
+    path = _config_file(tmp_path, "barn_split: train\n")
+    assert (
+        load_train_config(path, barn_worlds=5).barn_ids
+        == TrainConfig(barn_split="train", barn_worlds=5).barn_ids
+    )
+
+
+@pytest.mark.parametrize("name", ["d3dwa-barn", "d3dwa-weights-barn", "d3dwa-dr-barn"])
+def test_the_barn_configs_change_only_the_training_material_of_their_twin(name):
+    twin = barn_twin(name)
+    assert twin is not None and LEARNED[name] == LEARNED[twin]
+    mine, theirs = (load_train_config(configs_dir() / f"{m}.yaml") for m in (name, twin))
+    assert mine.barn_ids == barn_split_ids("train") and mine.worlds == mine.generators == ()
+    assert not {barn_name(i) for i in barn_split_ids("challenge")} & set(mine.eval_worlds)
+    material = {"method", "worlds", "generators", "generator_prob", "barn_split", "eval_worlds"}
+    differs = {k for k, v in mine.to_dict().items() if theirs.to_dict()[k] != v}
+    assert differs <= material and {"method", "barn_split"} <= differs, differs
 
 
 def _tiny_barn_run(tmp_path: Path, **changes) -> dict:

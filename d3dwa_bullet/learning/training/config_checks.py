@@ -25,6 +25,7 @@ from d3dwa_bullet.limits import (
     check_weights,
     is_decision_period,
 )
+from d3dwa_bullet.method_specs import barn_twin
 from d3dwa_bullet.params import RECOVERY_KINDS
 from d3dwa_bullet.planning.scan_filter import SCAN_FILTERS
 from d3dwa_bullet.world.barn import barn_split_ids
@@ -145,6 +146,16 @@ def check_barn(config: TrainConfig) -> None:
         raise ConfigError(
             f"TrainConfig.barn_worlds must be in [1, {size}] (the train split's size), "
             f"got {config.barn_worlds!r}"
+        )
+    if config.barn_split == "none" and count != size:
+        raise ConfigError(
+            f"TrainConfig.barn_worlds: {count} BARN worlds asked for, but barn_split is 'none' "
+            f"(set barn_split: train)"
+        )
+    if barn_twin(config.method) is not None and config.barn_split == "none":
+        raise ConfigError(
+            f"TrainConfig.barn_split: method {config.method!r} is trained on BARN's train split "
+            f"(its name says so), so barn_split must be 'train', got 'none'"
         )
 
 
