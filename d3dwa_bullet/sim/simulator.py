@@ -28,6 +28,7 @@ exactly the simulator's own.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -49,6 +50,40 @@ from d3dwa_bullet.world.model import Box, Cylinder, World, obstacle_outline
 CAPLESS_HEIGHT = AXLE_HEIGHT + LIDAR_MOUNT[2] + 0.05
 """Obstacles taller than this (m above the floor: the lidar's height plus 5 cm) collide by their
 walls alone; their top and bottom caps are only drawn (:meth:`Simulator._add_obstacles`)."""
+
+
+#: Worlds whose mesh lists :func:`obstacle_mesh` keeps per process (a training run's generated
+#: layouts are new every episode; an evaluation's worlds repeat, episode after episode).
+MESH_CACHE_SIZE = 64
+
+
+@functools.lru_cache(maxsize=MESH_CACHE_SIZE)
+def obstacle_mesh(
+    obstacles: tuple[Box | Cylinder, ...],
+) -> tuple[list[list[float]], list[int], list[int]]:
+    """(vertices (V, 3) m, collision triangles, drawn triangles) of the obstacles as one mesh:
+    each outline's prism, walls and (as fans over the convex outline) caps; a tall obstacle's
+    caps are drawn only (``CAPLESS_HEIGHT``).
+
+    Cached, and the same list objects handed to PyBullet every episode on a world: PyBullet
+    keeps a reference to every item of the vertex and index sequences it is given and never
+    lets go, so lists built anew each episode grew an evaluation worker by 5-15 MB an episode
+    on BARN (docs/benchmarks.md#memory); the same objects cost that once per world."""
+    vertices: list[list[float]] = []
+    sides: list[int] = []
+    caps: list[int] = []
+    for ob in obstacles:
+        outline = obstacle_outline(ob)
+        n, base = len(outline), len(vertices)
+        vertices += [[x, y, 0.0] for x, y in outline] + [[x, y, ob.height] for x, y in outline]
+        for i in range(n):
+            j = (i + 1) % n
+            sides += [base + i, base + j, base + n + j, base + i, base + n + j, base + n + i]
+        fans = []  # caps: fans over a convex outline
+        for i in range(1, n - 1):
+            fans += [base + n, base + n + i, base + n + i + 1, base, base + i + 1, base + i]
+        (caps if ob.height > CAPLESS_HEIGHT else sides).extend(fans)
+    return vertices, sides, sides + caps
 
 
 @dataclass(frozen=True)
@@ -157,20 +192,7 @@ class Simulator:
         """
         if not obstacles:
             return []
-        vertices: list[list[float]] = []
-        sides: list[int] = []
-        caps: list[int] = []
-        for ob in obstacles:
-            outline = obstacle_outline(ob)
-            n, base = len(outline), len(vertices)
-            vertices += [[x, y, 0.0] for x, y in outline] + [[x, y, ob.height] for x, y in outline]
-            for i in range(n):
-                j = (i + 1) % n
-                sides += [base + i, base + j, base + n + j, base + i, base + n + j, base + n + i]
-            fans = []  # caps: fans over a convex outline
-            for i in range(1, n - 1):
-                fans += [base + n, base + n + i, base + n + i + 1, base, base + i + 1, base + i]
-            (caps if ob.height > CAPLESS_HEIGHT else sides).extend(fans)
+        vertices, sides, drawn = obstacle_mesh(obstacles)
         cid = self.client
         # A tall obstacle collides by its walls only: the lidar's rays are horizontal, below its
         # top, and the robot can reach a cap only through a wall, so no ray or contact ever met
@@ -181,7 +203,7 @@ class Simulator:
             physicsClientId=cid,
         )  # fmt: skip
         visual = p.createVisualShape(
-            p.GEOM_MESH, vertices=vertices, indices=sides + caps, rgbaColor=[0.55, 0.55, 0.6, 1],
+            p.GEOM_MESH, vertices=vertices, indices=drawn, rgbaColor=[0.55, 0.55, 0.6, 1],
             physicsClientId=cid,
         )  # fmt: skip
         return [p.createMultiBody(0, shape, visual, [0, 0, 0], physicsClientId=cid)]

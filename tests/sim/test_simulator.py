@@ -12,6 +12,7 @@ from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.params import SimParams
 from d3dwa_bullet.resources import urdf_path
 from d3dwa_bullet.robot import BODY_CENTER, IMU_MOUNT, LIDAR_MOUNT, TRACK
+from d3dwa_bullet.sim import simulator
 from d3dwa_bullet.sim.lidar import LidarParams
 from d3dwa_bullet.sim.simulator import Simulator
 from d3dwa_bullet.world.model import Box, World
@@ -139,3 +140,29 @@ def test_same_commands_give_bit_identical_trajectories(post_world):
             drive(sim, 0.3, 0.4, 2.0)
             poses.append(sim.true_pose())
     assert poses[0] == poses[1]
+
+
+def test_a_world_hands_pybullet_the_same_mesh_lists_every_episode(monkeypatch):
+    # PyBullet never releases its references to the items of a mesh's vertex and index lists,
+    # so lists built anew each episode grew a worker without bound; the same objects do not.
+    handed: list[tuple[list, list]] = []  # the objects themselves: no id is reused
+    create = simulator.p.createCollisionShape
+
+    def spy(*args, **kwargs):
+        if "vertices" in kwargs:
+            handed.append((kwargs["vertices"], kwargs["indices"]))
+        return create(*args, **kwargs)
+
+    monkeypatch.setattr(simulator.p, "createCollisionShape", spy)
+    obstacles = (Box((1.0, 0.0), (0.2, 0.2)), Box((-1.0, 0.5), (0.1, 0.3), height=0.1))
+    world = World("mesh", "", (0.0, 0.0, 0.0), (2.0, 0.0), obstacles)
+    other = World("other", "", (0.0, 0.0, 0.0), (2.0, 0.0), obstacles[:1])
+    for w in (world, world, other):
+        with Simulator(w):
+            pass
+    assert len(handed) == 3
+    assert handed[0][0] is handed[1][0] and handed[0][1] is handed[1][1]
+    assert handed[2][0] is not handed[0][0] and len(handed[2][0]) < len(handed[0][0])
+    vertices, sides, drawn = simulator.obstacle_mesh(obstacles)
+    assert len(vertices) % 2 == 0 and len(sides) % 3 == 0 and drawn[: len(sides)] == sides
+    assert len(drawn) > len(sides)  # the tall box's caps are drawn only, the low one's collide
