@@ -5,6 +5,7 @@ results directory; a policy without BARN training gets neither."""
 from __future__ import annotations
 
 import json
+import shutil
 
 import pytest
 
@@ -108,3 +109,21 @@ def test_sweep_and_its_report_name_the_training_worlds_and_flag_the_tercile(
     flagged = f"| barn-{barn_tercile(IDS[0])} {MARK} (1 of 1 trained on) |"
     for page in ((out / "sweep.md").read_text(), (out / "report.md").read_text()):
         assert LINE in page and flagged in page
+
+
+def test_a_malformed_record_is_refused_in_one_line_before_any_episode(
+    barn_policy, tmp_path, capsys
+):
+    policy = tmp_path / "policy"
+    shutil.copytree(barn_policy, policy)
+    meta = json.loads((policy / "meta.json").read_text())
+    meta["metadata"]["barn"] = {"split": "train", "ids": [0]}  # a challenge world
+    (policy / "meta.json").write_text(json.dumps(meta))
+    out = tmp_path / "eval"
+    argv = ["eval", "--suite", "barn", "--world-ids", "0", "--methods", "d3dwa",
+            "--policy", str(policy), "--out", str(out)]  # fmt: skip
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and err.startswith("d3dwa: error: ")
+    assert str(policy / "meta.json") in err and "metadata.barn.ids is [0]" in err
+    assert not out.exists()
