@@ -43,6 +43,7 @@ from d3dwa_bullet.evaluation.margins import (
     check_margin,
     option_value,
 )
+from d3dwa_bullet.learning.agents.barn_record import BarnTraining
 from d3dwa_bullet.world.barn import barn_index
 from d3dwa_bullet.world.barn_difficulty import barn_tercile_group
 
@@ -169,6 +170,23 @@ def job_rows_of(out: Path) -> list[dict[str, Any]]:
     return job_rows(out)
 
 
+def trained_sides(
+    out: Path, other: Path, sides: dict[str, tuple[str, str]]
+) -> dict[str, BarnTraining]:
+    """Side key -> the BARN worlds its method's policy trained on, as its directory's
+    meta.json keeps them (sides: key -> (method, label), A's from out, B's from other)."""
+    # start-up cost: SciPy's bootstrap (~0.5 s); no simulator, no torch
+    from d3dwa_bullet.evaluation.results import read_meta
+    from d3dwa_bullet.evaluation.training_worlds import read_barn_training
+
+    found = {}
+    for (key, (method, _)), folder in zip(sides.items(), (out, other), strict=True):
+        record = read_barn_training(folder, read_meta(folder)).get(method)
+        if record is not None:
+            found[key] = record
+    return found
+
+
 def score_forms(out: Path, other: Path) -> str | None:
     """The score form (meta.json settings "score_form") both directories share; None when
     neither names one (results from before the score). ResultsError naming both forms when
@@ -228,14 +246,18 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
             test = paired.get(record["group"], {})
             record |= {f"paired_{k}": v for k, v in test.items()}
             record["readings"] = readings.get(record["group"], {})
+    sides = {key_a: (a, labels[key_a]), key_b: (b, labels[key_b])}
+    training = trained_sides(out, other, sides)
     if args.json:
         print(json_text({"results": str(out), "against": str(other), "a": a, "b": b,
                           "recovery_a": rec_a, "recovery_b": rec_b, "pair_by": args.pair_by,
                           "score_form": form, "margins": args.margins, "no_paired_test": absent,
-                          "complete": complete_a and complete_b, "groups": records}))  # fmt: skip
+                          "complete": complete_a and complete_b, "groups": records,
+                          "barn_training": {k: t.to_dict() for k, t in training.items()}}))  # fmt: skip
         return
-    sides = {key_a: (a, labels[key_a]), key_b: (b, labels[key_b])}
-    _print(args, rows, records, sides, source, absent)
+    groups = {g: {r["world"] for r in rows if g in ("all", *_groups_of(r, shipped))}
+              for g in (r["group"] for r in records)}  # fmt: skip
+    _print(args, rows, records, sides, source, absent, (training, groups))
 
 
 def _print(
@@ -245,12 +267,28 @@ def _print(
     sides: dict[str, tuple[str, str]],
     source: str,
     absent: str | None,
+    trained: tuple[dict[str, BarnTraining], dict[str, set[str]]] = ({}, {}),
 ) -> None:
     """The tables of :func:`_compare`: P(A > B) with the Wilcoxon test beside it, then the
     readings; with one shared layout, P(A > B), the success and time tables, and why no
-    paired test is given."""
+    paired test is given. trained: (side key -> its BARN training worlds, group -> its
+    worlds): each side that trained on BARN worlds has its line, and its cells and groups on
+    them a mark (``training_worlds``)."""
     from d3dwa_bullet.evaluation.readings import NO_SCORE, readings_table
     from d3dwa_bullet.evaluation.seed_tables import improvement_table, seed_tables
+    from d3dwa_bullet.evaluation.training_worlds import (
+        cell_mark,
+        group_flag,
+        trained_worlds,
+        training_lines,
+    )
+
+    training, members = trained
+    worlds = sorted({r["world"] for r in rows})
+    print(training_lines(training, worlds), end="")
+    flag = group_flag(trained_worlds(training))
+    marked = [r | {"group": r["group"] + "".join(flag(k, members[r["group"]]) for k in training)}
+              for r in records]  # fmt: skip
 
     (key_a, (_, la)), (key_b, (_, lb)) = sides.items()
     labels = {k: label for k, (_, label) in sides.items()}
@@ -270,10 +308,10 @@ def _print(
         f"P({la} > {lb}) on success per task (world, noise); 95 % stratified bootstrap "
         f"over runs; 0.5 = no difference.{paired} From {source}.\n"
     )
-    print(improvement_table(records, key_a, key_b, labels), end="")
+    print(improvement_table(marked, key_a, key_b, labels), end="")
     if absent:
-        worlds = sorted({r["world"] for r in rows})
-        print("\n" + seed_tables(rows, [key_a, key_b], worlds, sides), end="")
+        mark = cell_mark(trained_worlds(training))
+        print("\n" + seed_tables(rows, [key_a, key_b], worlds, sides, mark), end="")
         print(f"\n{absent}")
         return
     seeds = {int(r["seed"]) for r in rows}

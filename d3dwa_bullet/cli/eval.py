@@ -109,6 +109,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
     )
     from d3dwa_bullet.evaluation.policy_config import policy_config_notes
     from d3dwa_bullet.evaluation.report import eval_markdown, figure_seeds, seeds_markdown
+    from d3dwa_bullet.evaluation.training_worlds import (
+        SETTINGS_KEY,
+        runs_barn_training,
+        settings_entry,
+    )
 
     worlds, renamed = key_apart(loaded)
     for run in runs:  # fail fast on a missing policy or profile, before any episode runs
@@ -119,6 +124,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     ]  # fmt: skip
     check_distinct(jobs)  # before --out is made (evaluate checks again: it has other callers)
     notes = policy_config_notes(runs, config.recovery_name, policy)
+    training = runs_barn_training(runs)  # read before any episode: a bad record is refused
     out = check_out_dir(args.out, subdirs=("logs", "figures"))
     names = [w.name for w in worlds]
     settings = {
@@ -133,6 +139,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     if policy:
         settings["policy"] = str(Path(policy).resolve())
     settings["policy_notes"] = notes
+    settings[SETTINGS_KEY] = settings_entry(training)
     with locked_dir(out):  # one writer: the episodes, then the tables and figures
         rows = evaluate(
             jobs, out, workers=workers, config=config, progress=not args.json,
@@ -141,10 +148,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
         recovery = config.recovery_name
         table = eval_markdown(
             rows, methods, names, seeds, args.noise, recovery=recovery, renamed=renamed,
-            policy_notes=notes, scan_filter=config.scan_filter,
+            policy_notes=notes, scan_filter=config.scan_filter, barn_training=training,
         )  # fmt: skip
         atomic_write_text(out / "table.md", table)
-        atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names))
+        atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names, training))
         figures = world_figures(out, worlds, methods, seeds[0], args.noise, figure_seeds(rows))
     if args.json:
         print(json_text(rows))

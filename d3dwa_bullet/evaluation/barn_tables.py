@@ -8,7 +8,7 @@ difficulty group its tercile (``barn-easy``, ``barn-middle``, ``barn-hard``;
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from typing import Any
 
 from d3dwa_bullet.evaluation.seed_tables import condition_table
@@ -39,10 +39,12 @@ def barn_section(
     methods: Sequence[str],
     columns: Sequence[str],
     column_of: Callable[[Row], str | None],
+    flag: Callable[[str, Collection[str]], str] | None = None,
 ) -> str:
     """Markdown: success over runs per BARN split (when the rows hold both) and per
     difficulty tercile, one column per ``columns`` (e.g. the noise profile); "" without
-    BARN rows. Non-BARN rows are left out."""
+    BARN rows. Non-BARN rows are left out. flag: the text after a row's group for (method,
+    its worlds): how many are that method's training worlds (``training_worlds.group_flag``)."""
     barn = [r for r in rows if barn_index(r["world"]) is not None]
     if not barn:
         return ""
@@ -56,7 +58,9 @@ def barn_section(
         present = [g for g in order if any(group_of(r["world"]) == g for r in barn)]
         if order is SPLIT_ORDER and len(present) < 2:
             continue  # one split: its rows are the tercile table's "all layouts"
-        table = condition_table(barn, methods, columns, column_of, present, _layout(group_of))
+        table = condition_table(
+            barn, methods, columns, column_of, present, _layout(group_of), flag=flag
+        )
         parts.append(table + "\n")
     return "".join(parts)
 

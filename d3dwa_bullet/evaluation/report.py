@@ -22,6 +22,7 @@ from typing import Any
 
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation import training_worlds as tw
 from d3dwa_bullet.evaluation.barn_tables import barn_section
 from d3dwa_bullet.evaluation.floors import FLOORS_NOTE, floor_records, floor_table
 from d3dwa_bullet.evaluation.jobs import figure_name, world_figures
@@ -37,15 +38,16 @@ from d3dwa_bullet.evaluation.results import (
 )
 from d3dwa_bullet.evaluation.score_tables import score_tables
 from d3dwa_bullet.evaluation.seed_tables import check_not_mixed, per_seed_table, seed_tables
-from d3dwa_bullet.evaluation.sweep import (
-    SweepSettings,
-    read_sweep,
-    sweep_figures,
-    sweep_markdown,
+from d3dwa_bullet.evaluation.sweep import SweepSettings, read_sweep, sweep_figures, sweep_markdown
+from d3dwa_bullet.evaluation.tables import (
+    paper_table,
+    policy_notes,
+    repeats_note,
+    run_notes,
+    scan_filter_of,
 )
-from d3dwa_bullet.evaluation.tables import paper_table, repeats_note, run_notes, scan_filter_of
 from d3dwa_bullet.io import atomic_write_bytes, atomic_write_text
-from d3dwa_bullet.limits import MAX_NOTE_CHARS, MAX_NOTE_VALUE_CHARS, cut_text
+from d3dwa_bullet.learning.agents.barn_record import BarnTraining
 from d3dwa_bullet.method_specs import method_label
 from d3dwa_bullet.resources import policies_dir as shipped_policies_dir
 from d3dwa_bullet.world.registry import load_world
@@ -78,6 +80,7 @@ def eval_markdown(
     renamed: Mapping[str, str] | None = None,
     policy_notes: Sequence[str] = (),
     scan_filter: str = "none",
+    barn_training: Mapping[str, BarnTraining] | None = None,
 ) -> str:
     """The evaluation page of ``d3dwa eval`` (table.md): success and time over training
     seeds with their intervals, then the paper's layout pooled over every episode. With a
@@ -85,7 +88,10 @@ def eval_markdown(
     names the config it was trained under (policy_notes, ``policy_config``), and worlds keyed
     apart from another of the same name (renamed: {key: source}, ``jobs.key_apart``) say which
     file they are; the paper track's page of distinct worlds is unchanged. BARN worlds add
-    rows per split and difficulty tercile (``barn_tables``)."""
+    rows per split and difficulty tercile (``barn_tables``). A method that trained on BARN
+    worlds (barn_training) has its line, and its cells on them a mark (``training_worlds``)."""
+    trained = tw.trained_worlds(barn_training or {})
+    mark = tw.cell_mark(trained)
     span = f"{seeds[0]}..{seeds[-1]}" if seeds else "none"
     keys = "".join(
         f"World `{key}` is {source} (keyed apart from another world of that name).\n\n"
@@ -94,6 +100,7 @@ def eval_markdown(
     return (
         f"# {title or 'Evaluation: ' + world_span(worlds)}\n\n"
         f"{run_notes(recovery, policy_notes, scan_filter)}"
+        f"{tw.training_lines(barn_training or {}, worlds)}"
         f"Noise profile: `{noise}`; evaluation seeds: {span}.\n\n"
         f"{repeats_note(len(seeds), methods, noise)}"
         f"{keys}"
@@ -105,16 +112,16 @@ def eval_markdown(
         "mean time to goal; *all* averages the worlds. Score: per episode success x t_ref / "
         "clip(t, t_ref, 8 t_ref), t_ref = L / v_max, L the route length (docs/design.md#score); "
         "a run's score is its episodes' mean. Each training seed's row: table_seeds.md.\n\n"
-        + seed_tables(rows, methods, worlds)
+        + seed_tables(rows, methods, worlds, mark=mark)
         + "\n"
-        + score_tables(rows, methods, worlds)
+        + score_tables(rows, methods, worlds, mark)
         + floors_section(rows, methods)
         + "\n## Paper layout, pooled over every run\n\n"
         "Time [s], TL [m], PD [rad] averaged over every successful episode; T = timeout, "
         "C = collision; (k/n) where only k of n episodes succeeded; best per world and metric "
         "in bold.\n\n"
-        + paper_table(rows, methods, worlds)
-        + barn_section(rows, methods, [noise], lambda r: r["noise"])
+        + paper_table(rows, methods, worlds, mark)
+        + barn_section(rows, methods, [noise], lambda r: r["noise"], tw.group_flag(trained))
     )
 
 
@@ -137,14 +144,20 @@ def floors_section(rows: Sequence[dict[str, Any]], methods: Sequence[str]) -> st
 
 
 def seeds_markdown(
-    rows: Sequence[dict[str, Any]], methods: Sequence[str], worlds: Sequence[str]
+    rows: Sequence[dict[str, Any]],
+    methods: Sequence[str],
+    worlds: Sequence[str],
+    barn_training: Mapping[str, BarnTraining] | None = None,
 ) -> str:
-    """table_seeds.md: each training seed's row (fixed methods: one row)."""
+    """table_seeds.md: each training seed's row (fixed methods: one row), with the line and
+    marks of a method that trained on BARN worlds (see eval_markdown)."""
+    training = barn_training or {}
     return (
-        f"# Per training seed: {', '.join(worlds)}\n\n"
+        f"# Per training seed: {world_span(worlds)}\n\n{tw.training_lines(training, worlds)}"
         "Cells: successes/episodes, mean time to goal of the successes; T = timeout, "
         "C = collision. Score, BARN: the mean episode score over every world (robot form, "
-        "BARN's official form; docs/design.md#score).\n\n" + per_seed_table(rows, methods, worlds)
+        "BARN's official form; docs/design.md#score).\n\n"
+        + per_seed_table(rows, methods, worlds, tw.cell_mark(tw.trained_worlds(training)))
     )
 
 
@@ -205,7 +218,7 @@ def write_table_page(
     notes = policy_notes(out, meta)
     page = eval_markdown(
         rows, methods, worlds, seeds, noise, title, recovery_of(out), policy_notes=notes,
-        scan_filter=scan_filter_of(meta),
+        scan_filter=scan_filter_of(meta), barn_training=tw.read_barn_training(out, meta),
     )  # fmt: skip
     page += f"\nFrom `{out / 'results.csv'}` ({len(rows)} episodes), d3dwa-bullet {__version__}.\n"
     atomic_write_text(dest, page)
@@ -259,7 +272,7 @@ def _eval_body(out: Path, meta: dict[str, Any], rows: list[dict], partial: bool)
     notes = policy_notes(out, meta)
     body = eval_markdown(
         rows, methods, worlds, seeds, noise, f"Tables{note}", recovery, policy_notes=notes,
-        scan_filter=scan_filter_of(meta),
+        scan_filter=scan_filter_of(meta), barn_training=tw.read_barn_training(out, meta),
     )  # fmt: skip
     body = "#" + body.replace("\n#", "\n##")  # one level down inside the page
     sources = meta["settings"].get("world_sources", worlds)
@@ -326,7 +339,7 @@ def _sweep_body(out: Path, meta: dict[str, Any], partial: bool) -> str:
     by_name = {p.stem: p for p in figures}
     saved = meta["settings"]  # as written: it also holds what SweepSettings does not
     tables = run_notes(saved.get("recovery", "none"), policy_notes(out, meta), scan_filter_of(meta))
-    tables += sweep_markdown(rows, settings)
+    tables += sweep_markdown(rows, settings, tw.read_barn_training(out, meta))
     # Put each axis's figure above its table.
     for name in [*settings.axes, "profiles"]:
         fig = by_name.get(f"sweep_{name}")
@@ -384,17 +397,3 @@ def write_report(
     path = out / "report.md"
     atomic_write_text(path, "".join(page))
     return Report(path, kind, done, expected)
-
-
-def policy_notes(out: Path, meta: Mapping[str, Any]) -> list[str]:
-    """meta.json's ``settings.policy_notes``: ResultsError, one line naming the file, unless
-    it is a list of strings (a hand-edited file could hold anything); each cut to
-    ``MAX_NOTE_CHARS``."""
-    settings = meta.get("settings", {})
-    notes = settings.get("policy_notes", []) if isinstance(settings, Mapping) else []
-    if not isinstance(notes, list) or not all(isinstance(n, str) for n in notes):
-        shown = cut_text(repr(notes), MAX_NOTE_VALUE_CHARS)
-        raise ResultsError(
-            f"{out / 'meta.json'}: settings.policy_notes is {shown}, expected a list of strings"
-        )
-    return [cut_text(n, MAX_NOTE_CHARS) for n in notes]

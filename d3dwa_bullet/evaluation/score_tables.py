@@ -14,7 +14,7 @@ Pure functions of results rows: no simulator, no torch.
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from functools import partial
 
 from d3dwa_bullet.episode_metrics import SCORE_FORM
@@ -44,11 +44,17 @@ def _per_world(rows: Sequence[Row], column: str) -> list[list[float]]:
     return [column_scores(rs, column) for rs in worlds.values()]
 
 
-def score_tables(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence[str]) -> str:
+def score_tables(
+    rows: Sequence[Row],
+    methods: Sequence[str],
+    worlds: Sequence[str],
+    mark: Callable[[str, str], str] | None = None,
+) -> str:
     """Markdown: the robot-form score per (method, world), mean over runs [95 % interval]
     with an "all" column (mean over worlds), then per method over every world: the mean and
     IQM of the robot form and the mean of BARN's (at most 115 characters wide with the longest
-    method label). Rows from before the score: the note instead."""
+    method label). Rows from before the score: the note instead. mark: the text after a
+    (method, world) cell (a training world's mark, ``training_worlds.cell_mark``)."""
     head = f"### Score ({SCORE_FORM}), mean over runs, 95 % interval\n\n"
     if not is_scored(rows):
         return f"{head}{UNSCORED_NOTE}\n"
@@ -67,7 +73,8 @@ def score_tables(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence[s
         cells = []
         for w in worlds:
             rs = [r for r in mine if r["world"] == w]
-            cells.append(score_cell([column_scores(rs, ROBOT)]) if rs else "")
+            flag = mark(m, w) if mark else ""
+            cells.append(score_cell([column_scores(rs, ROBOT)]) + flag if rs else "")
         robot, barn = _per_world(mine, ROBOT), _per_world(mine, BARN)
         per_world.append(
             f"| {method_label(m)} | " + " | ".join(cells) + f" | {score_cell(robot)} |"
@@ -92,14 +99,17 @@ def score_condition_tables(
     column_of: Callable[[Row], str | None],
     layouts: Sequence[str],
     layout_of: Callable[[Row], str],
+    flag: Callable[[str, Collection[str]], str] | None = None,
 ) -> str:
     """The score per (layout group, method) and column (e.g. a noise profile), over runs
     stratified by world, as three Markdown tables: robot-form mean and IQM, each with its
     95 % interval, and BARN's official mean (the point only, so that four profiles stay
-    readable). Rows from before the score: the note."""
+    readable). Rows from before the score: the note. flag: as ``condition_table``'s."""
     if not is_scored(rows):
         return f"{UNSCORED_NOTE}\n"
-    table = partial(condition_table, rows, methods, columns, column_of, layouts, layout_of)
+    table = partial(
+        condition_table, rows, methods, columns, column_of, layouts, layout_of, flag=flag
+    )
     parts: tuple[tuple[str, str, Callable[[list[list[float]]], str]], ...] = (
         (f"Score ({SCORE_FORM}), mean [95 % interval]", ROBOT, score_cell),
         (

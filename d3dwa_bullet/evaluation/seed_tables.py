@@ -22,7 +22,7 @@ returns them): no simulator, no torch.
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -130,12 +130,14 @@ def seed_tables(
     methods: Sequence[str],
     worlds: Sequence[str],
     sides: Mapping[str, tuple[str, str]] | None = None,
+    mark: Callable[[str, str], str] | None = None,
 ) -> str:
     """Success rate and time per (method, world) over runs, with 95 % intervals, as Markdown:
     one table of success rates (%), one of IQM times (s); an "all" column aggregates the
     worlds (mean success over worlds, IQM of time over every run and world). sides: for a
     row's method that is a key, not a method (one method on both sides of a comparison),
-    the (method, label) it stands for."""
+    the (method, label) it stands for. mark: the text after a (row's method or key, world)
+    cell (a training world's mark, ``training_worlds.cell_mark``)."""
     cells = _cells(rows)
     named = {m: (m, method_label(m)) for m in methods} | dict(sides or {})
     header = "| Method | runs | " + " | ".join(worlds) + " | all |"
@@ -155,8 +157,9 @@ def seed_tables(
             s, t = success_scores(rs), time_scores(rs)
             s_all.append(s)
             t_all.append(t)
-            s_cells.append(_rate(mean_interval([s])))
-            t_cells.append(_time(_time_interval([t])))
+            flag = mark(m, w) if mark else ""
+            s_cells.append(_rate(mean_interval([s])) + flag)
+            t_cells.append(_time(_time_interval([t])) + flag)
         label = f"| {named[m][1]} | {_runs_label(named[m][0], mine)} | "
         success.append(label + " | ".join(s_cells) + f" | {_rate(mean_interval(s_all))} |")
         timing.append(label + " | ".join(t_cells) + f" | {_time(_time_interval(t_all))} |")
@@ -169,11 +172,16 @@ def seed_tables(
     )
 
 
-def per_seed_table(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence[str]) -> str:
+def per_seed_table(
+    rows: Sequence[Row],
+    methods: Sequence[str],
+    worlds: Sequence[str],
+    mark: Callable[[str, str], str] | None = None,
+) -> str:
     """One row per (method, training seed): successes/episodes and mean time per world, then
     over every world the success rate and the mean score in both forms (robot, BARN's;
     ``--`` for rows from before the score). Fixed methods get one row over all their
-    evaluation seeds."""
+    evaluation seeds. mark: the text after a (method, world) cell (see seed_tables)."""
     cells = _cells(rows)
     scored = all(r.get("score") is not None for r in rows)
     lines = [
@@ -196,6 +204,8 @@ def per_seed_table(rows: Sequence[Row], methods: Sequence[str], worlds: Sequence
                 else:
                     n_c = sum(r["outcome"] == "collision" for r in rs)
                     parts.append(f"0/{len(rs)} ({n_c} C, {len(rs) - n_c} T)")
+                if rs and mark:
+                    parts[-1] += mark(m, w)
             rate = f"{100 * n_ok / n_all:.0f} %" if n_all else ""
             mine_k = [r for r in mine if r["policy_seed"] == k]
             score = barn = "--"
@@ -290,12 +300,14 @@ def condition_table(
     layout_of: Callable[[Row], str],
     cell: Callable[[list[list[float]]], str] | None = None,
     scores: Callable[[Sequence[Row]], list[float]] = success_scores,
+    flag: Callable[[str, Collection[str]], str] | None = None,
 ) -> str:
     """Success over runs per (layout group, method) and column (e.g. a noise profile): the
     mean over the group's worlds with its stratified interval, as Markdown. Rows whose
     column_of is None are left out; an "all layouts" group follows when there are several.
     scores: the per-run scores of one world's rows (default success); cell: the text of a
-    cell from the per-world lists of them (default the mean [interval] in %)."""
+    cell from the per-world lists of them (default the mean [interval] in %). flag: the text
+    after a row's group for (method, the group's worlds), e.g. how many are training worlds."""
     cell = cell or (lambda per_world: _rate(mean_interval(per_world)))
     groups = [*layouts, "all layouts"] if len(layouts) > 1 else list(layouts)
     cells: dict[tuple[str, str, str], dict[str, list[Row]]] = defaultdict(lambda: defaultdict(list))
@@ -311,10 +323,12 @@ def condition_table(
     ]
     for g in groups:
         for m in methods:
-            parts = []
+            parts, seen = [], set()
             for c in columns:
                 worlds = cells.get((g, m, c))
                 parts.append(cell([scores(rs) for rs in worlds.values()]) if worlds else "")
+                seen.update(worlds or ())
             if any(parts):
-                lines.append(f"| {method_label(m)} | {g} | " + " | ".join(parts) + " |")
+                label = g + (flag(m, seen) if flag else "")
+                lines.append(f"| {method_label(m)} | {label} | " + " | ".join(parts) + " |")
     return "\n".join(lines) + "\n"

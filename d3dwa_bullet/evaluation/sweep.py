@@ -70,8 +70,17 @@ from d3dwa_bullet.evaluation.sweep_settings import (
     episode_count,
 )
 from d3dwa_bullet.evaluation.tables import repeats_note, run_notes, series_table
+from d3dwa_bullet.evaluation.training_worlds import (
+    SETTINGS_KEY,
+    group_flag,
+    runs_barn_training,
+    settings_entry,
+    trained_worlds,
+    training_lines,
+)
 from d3dwa_bullet.external.resolve import method_origins
 from d3dwa_bullet.io import atomic_write_text
+from d3dwa_bullet.learning.agents.barn_record import BarnTraining
 from d3dwa_bullet.limits import MAX_EPISODES
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
 from d3dwa_bullet.world.model import World
@@ -249,14 +258,28 @@ def sweep_figures(
     return paths
 
 
-def sweep_markdown(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -> str:
-    """Per-axis and per-profile tables: successes/episodes, mean time to goal ± 95 % CI."""
+def sweep_markdown(
+    rows: Sequence[Mapping[str, Any]],
+    settings: SweepSettings,
+    barn_training: Mapping[str, BarnTraining] | None = None,
+) -> str:
+    """Per-axis and per-profile tables: successes/episodes, mean time to goal ± 95 % CI. A
+    method that trained on BARN worlds (barn_training) has its line first, and its rows of a
+    tercile holding some of them say how many (``training_worlds``)."""
     titles = layout_titles(settings)
+    training = barn_training or {}
+    flag = group_flag(trained_worlds(training))
+    members = {g: [w for w in settings.worlds if given_group(w) == g] for g in TERCILE_ORDER}
+
+    def layout_flag(method: str, group: str) -> str:
+        return flag(method, members.get(group, ()))
+
     parts = [
+        training_lines(training, settings.worlds),
         "Cells: successes/episodes, mean time to goal of the successes ± half-width of the "
         "95 % t-interval; then the mean episode score (docs/design.md#score). Layouts: "
         + "; ".join(f"*{k}* = {v}" for k, v in titles.items())
-        + ".\n"
+        + ".\n",
     ]
     if not is_scored(rows):
         parts.append(f"\n{UNSCORED_NOTE}\n")
@@ -266,11 +289,11 @@ def sweep_markdown(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -
         axis = AXES[name]
         levels = [0.0, *axis.levels(settings.levels)]
         parts.append(f"\n### {axis.label} (`{name}`)\n\n")
-        parts.append(series_table(axis_series(rows, name, settings.methods), levels))
+        parts.append(series_table(axis_series(rows, name, settings.methods), levels, layout_flag))
     if settings.profiles:
         parts.append("\n### Named profiles\n\n")
         series = profile_series(rows, settings.profiles, settings.methods)
-        parts.append(series_table(series, settings.profiles))
+        parts.append(series_table(series, settings.profiles, layout_flag))
         parts.append(
             "\n### Named profiles over training seeds\n\nSuccess rate [%] averaged over the "
             "layouts of a group, 95 % stratified bootstrap over runs (a learned method's "
@@ -279,7 +302,7 @@ def sweep_markdown(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -
         groups = [g for g in LAYOUT_GROUPS if g in titles]
         parts.append(
             condition_table(rows, settings.methods, settings.profiles, profile_of,
-                            groups, lambda r: r["layout"])
+                            groups, lambda r: r["layout"], flag=flag)
         )  # fmt: skip
         parts.append(
             "\n### Named profiles: score over training seeds\n\nPer run the mean episode "
@@ -288,7 +311,7 @@ def sweep_markdown(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -
         )
         parts.append(
             score_condition_tables(rows, settings.methods, settings.profiles, profile_of,
-                                   groups, lambda r: r["layout"])
+                                   groups, lambda r: r["layout"], flag)
         )  # fmt: skip
     floors = floor_table(floor_records(rows, settings.methods))
     if floors:
@@ -338,6 +361,8 @@ def run_sweep(
     if policy:
         meta["policy"] = str(Path(policy).resolve())
     notes = meta["policy_notes"] = policy_config_notes(runs, config.recovery_name, policy)
+    training = runs_barn_training(runs)
+    meta[SETTINGS_KEY] = settings_entry(training)
     with locked_dir(out):  # one writer: the episodes, then the page and figures
         evaluate(jobs, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta)
         keys = {j.key for j in jobs}
@@ -348,5 +373,5 @@ def run_sweep(
             sweep_figures(rows, settings, out / "figures")
         if complete:
             page = "# Noise sweep\n\n" + run_notes(config.recovery_name, notes, config.scan_filter)
-            atomic_write_text(out / "sweep.md", page + sweep_markdown(rows, settings))
+            atomic_write_text(out / "sweep.md", page + sweep_markdown(rows, settings, training))
     return rows, complete

@@ -15,13 +15,16 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.repeats import NOISE_FREE, ONCE_NOTE, repeats_at_every_seed
 from d3dwa_bullet.evaluation.stats import CellStats, Series
+from d3dwa_bullet.limits import MAX_NOTE_CHARS, MAX_NOTE_VALUE_CHARS, cut_text
 from d3dwa_bullet.method_specs import method_label
 
 METRICS = (("time_s", "Time"), ("tl_m", "TL"), ("pd_rad", "PD"))
@@ -35,9 +38,13 @@ def _group(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str], list[dict[st
 
 
 def paper_table(
-    rows: Sequence[dict[str, Any]], methods: Sequence[str], worlds: Sequence[str]
+    rows: Sequence[dict[str, Any]],
+    methods: Sequence[str],
+    worlds: Sequence[str],
+    mark: Callable[[str, str], str] | None = None,
 ) -> str:
-    """Table I layout as Markdown."""
+    """Table I layout as Markdown; mark: the text after a (method, world)'s Time cell (a
+    training world's mark, ``training_worlds.cell_mark``)."""
     groups = _group(rows)
     means: dict[tuple[str, str, str], float] = {}
     for (m, w), rs in groups.items():
@@ -65,8 +72,8 @@ def paper_table(
                 cells += ["", "", ""]
                 continue
             if not ok:
-                mark = "T" if any(r["outcome"] == "timeout" for r in rs) else "C"
-                cells += [mark, "--", "--"]
+                failed = "T" if any(r["outcome"] == "timeout" for r in rs) else "C"
+                cells += [failed + (mark(m, w) if mark else ""), "--", "--"]
                 continue
             for key, _ in METRICS:
                 val = round(means[(m, w, key)], 2)
@@ -75,6 +82,8 @@ def paper_table(
                     text = f"**{text}**"
                 if key == "time_s" and len(ok) < len(rs):
                     text += f" ({len(ok)}/{len(rs)})"
+                if key == "time_s" and mark:
+                    text += mark(m, w)
                 cells.append(text)
         lines.append(f"| {method_label(m)} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
@@ -91,9 +100,12 @@ def _cell(s: CellStats) -> str:
     return text
 
 
-def series_table(series: Series, header: Sequence[Any]) -> str:
+def series_table(
+    series: Series, header: Sequence[Any], flag: Callable[[str, str], str] | None = None
+) -> str:
     """A sweep's series as Markdown: a row per (method, layout group), a column per x of
-    header (a cell is empty where the series has no such x)."""
+    header (a cell is empty where the series has no such x). flag: the text after a row's
+    layout group for (method, group), e.g. how many of its worlds are training worlds."""
     lines = [
         "| Method | layouts | " + " | ".join(str(h) for h in header) + " |",
         "|---|---|" + "---:|" * len(header),
@@ -102,7 +114,8 @@ def series_table(series: Series, header: Sequence[Any]) -> str:
         for m, points in per_method.items():
             by_x = dict(points)
             cells = [_cell(by_x[x]) if x in by_x else "" for x in header]
-            lines.append(f"| {method_label(m)} | {layout} | " + " | ".join(cells) + " |")
+            label = layout + (flag(m, layout) if flag else "")
+            lines.append(f"| {method_label(m)} | {label} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -139,3 +152,17 @@ def scan_filter_of(meta: Mapping[str, Any]) -> str:
     config = meta.get("config")
     value = config.get("scan_filter", "none") if isinstance(config, Mapping) else "none"
     return value if isinstance(value, str) else "none"
+
+
+def policy_notes(out: Path, meta: Mapping[str, Any]) -> list[str]:
+    """meta.json's ``settings.policy_notes``: ResultsError, one line naming the file, unless
+    it is a list of strings (a hand-edited file could hold anything); each cut to
+    ``MAX_NOTE_CHARS``."""
+    settings = meta.get("settings", {})
+    notes = settings.get("policy_notes", []) if isinstance(settings, Mapping) else []
+    if not isinstance(notes, list) or not all(isinstance(n, str) for n in notes):
+        shown = cut_text(repr(notes), MAX_NOTE_VALUE_CHARS)
+        raise ResultsError(
+            f"{out / 'meta.json'}: settings.policy_notes is {shown}, expected a list of strings"
+        )
+    return [cut_text(n, MAX_NOTE_CHARS) for n in notes]

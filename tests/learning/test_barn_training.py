@@ -10,12 +10,12 @@ import pytest
 
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.learning.agents.checkpoint import load_checkpoint
-from d3dwa_bullet.learning.agents.d3qn import D3QNConfig
-from d3dwa_bullet.learning.training import TrainConfig, load_train_config, make_env, train
+from d3dwa_bullet.learning.training import TrainConfig, load_train_config, make_env
 from d3dwa_bullet.method_specs import LEARNED, barn_twin
 from d3dwa_bullet.resources import configs_dir
 from d3dwa_bullet.world.barn import barn_name, barn_split_ids
 from tests.support.config_refusal import refused_at_load
+from tests.support.tiny_policy import tiny_run
 
 BASE = "method: d3dwa\ngenerators: []\nn_envs: 1\n"
 
@@ -153,27 +153,7 @@ def test_the_barn_configs_change_only_the_training_material_of_their_twin(name):
 
 
 def _tiny_barn_run(tmp_path: Path, **changes) -> dict:
-    config = TrainConfig(
-        **(
-            dict(
-                method="d3dwa",
-                total_steps=30,
-                worlds=(),
-                generators=(),
-                agent=D3QNConfig(hidden=(8,), batch_size=4, buffer_size=100, learning_starts=10),
-                eval_every=0,
-                checkpoint_every=0,
-                log_every=10,
-                keep="final",
-                n_envs=1,
-                vector="sync",
-            )
-            | changes
-        )
-    )
-    out = tmp_path / "run"
-    train(config, out, progress=False)
-    _, meta = load_checkpoint(out / "policy")
+    _, meta = load_checkpoint(tiny_run(tmp_path / "run", **changes))
     return meta["metadata"]
 
 

@@ -4,8 +4,9 @@ Modules: ``network`` (dueling Q-network), ``replay`` (uniform replay), ``d3qn`` 
 algorithm), ``dqdwa`` (tabular baseline), ``checkpoint`` (save/load), ``training_state``
 (what a checkpoint adds to resume training exactly), ``policy`` (fast greedy policies for
 evaluation), ``onnx_export`` (a D3QN checkpoint -> an ONNX file), ``onnx_policy`` (the
-greedy policy of an ONNX file, run by onnxruntime without torch) and ``policy_terms`` (the
-decision period and training recovery layer either records, checked alike).
+greedy policy of an ONNX file, run by onnxruntime without torch), ``policy_terms`` (the
+decision period and training recovery layer either records, checked alike) and ``barn_record``
+(the BARN worlds a policy trained on, as its meta.json records them).
 
 The names below are re-exported lazily, each imported on first access: ``onnx_policy`` must
 stay importable where torch is not installed (a robot's computer), and onnxruntime and onnx

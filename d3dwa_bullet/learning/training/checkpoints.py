@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from d3dwa_bullet.errors import TrainingError
+from d3dwa_bullet.learning.agents.barn_record import barn_record
 from d3dwa_bullet.learning.agents.checkpoint import (
     CONFIG_FILE,
     CURVE_FILE,
@@ -77,9 +78,7 @@ def barn_metadata(config: TrainConfig) -> dict[str, Any]:
     """``{"barn": {"split": ..., "ids": [...]}}``: the BARN worlds a run trains on (their numbers,
     in ``barn_ids`` order), so that a policy trained on them can be told apart; {} when
     ``barn_split`` is 'none' (the meta of earlier policies is unchanged)."""
-    if config.barn_split == "none":
-        return {}
-    return {"barn": {"split": config.barn_split, "ids": list(config.barn_ids)}}
+    return barn_record(config.barn_split, config.barn_ids)
 
 
 def save_latest(
