@@ -41,7 +41,7 @@ def trained_on(k):
     return TrainConfig(method=METHOD, barn_split="train", barn_worlds=k).to_dict()
 
 
-def eval_dir(path, outcomes, k=None, worlds=WORLDS, noise="none", recovery="nav2"):
+def eval_dir(path, outcomes, k=None, worlds=WORLDS, noise="none", recovery="nav2", todo=()):
     """A d3dwa eval results directory: seed -> one outcome per world, its meta.json naming a
     --policy folder; with k, that folder's seed-<s>/config.json records barn_worlds k, without
     it the folder is absent."""
@@ -65,7 +65,7 @@ def eval_dir(path, outcomes, k=None, worlds=WORLDS, noise="none", recovery="nav2
                            reference_length_m=11.0, recovery=recovery)  # fmt: skip
                 append(row)
                 keys.append(row_key(row))
-    write_meta(path, EpisodeConfig(), settings, fields, keys)
+    write_meta(path, EpisodeConfig(), settings, fields, [*keys, *todo])  # todo: jobs not run
     return path
 
 
@@ -188,7 +188,7 @@ def test_the_table_holds_every_point_and_the_reading(points, tmp_path, capsys):
         ),
         (
             lambda p: {5: eval_dir(p / "a", FEW), 50: eval_dir(p / "b", FEW, noise="harsh")},
-            "differ in noise",
+            "differ in noise: harsh vs none",
         ),
         (
             lambda p: {
@@ -196,6 +196,13 @@ def test_the_table_holds_every_point_and_the_reading(points, tmp_path, capsys):
                 50: eval_dir(p / "b", FEW, worlds=WORLDS[1:] + [barn_name(36)]),
             },
             "differ in worlds: 6 worlds vs 6 worlds (not the same ones)",
+        ),
+        (
+            lambda p: {
+                5: eval_dir(p / "a", FEW),
+                50: eval_dir(p / "b", FEW, todo=[(barn_name(36), METHOD, 0, 0, "none")]),
+            },
+            "18 of its 19 episodes are in: the evaluation is incomplete",
         ),
         (lambda p: {5: eval_dir(p / "a", FEW)}, "a curve needs two points or more"),
         (lambda p: {5: eval_dir(p / "a", FEW), 50: p / "nowhere"}, "no results.csv"),

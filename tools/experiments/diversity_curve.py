@@ -10,8 +10,8 @@ stopped).
 - K is checked against ``barn_worlds`` in the config.json of every seed's policy folder (the
   ``--policy`` the results' meta.json names, else the shipped ``policies/<method>/``) when the
   folder is there; a mismatch, a policy not trained on BARN, fewer than :data:`MIN_SEEDS`
-  training seeds, a world outside ``challenge``, a seed that did not run every world of its
-  point, or points over different worlds, noise or recovery layers are refused in one line.
+  training seeds, a world outside ``challenge``, an incomplete evaluation, or points over
+  different worlds, noise or recovery layers are refused in one line.
 - Per point and metric (success, the robot score, BARN's official score): each training seed's
   value (its mean over the challenge worlds), their mean and the 95 % Student-t interval over
   seeds (``stats.t_interval``, SciPy's t: with 3 to 5 seeds a bootstrap would undercover).
@@ -40,7 +40,13 @@ from d3dwa_bullet.errors import ConfigError, ResultsError
 from d3dwa_bullet.evaluation.margins import MARGIN_OPTIONS, MARGINS, check_margin, option_value
 from d3dwa_bullet.evaluation.paired import METRICS, metric_value, paired_scores
 from d3dwa_bullet.evaluation.readings import reading_of, reading_text, readings_table
-from d3dwa_bullet.evaluation.results import check_results_dir, job_rows, read_meta, recovery_of
+from d3dwa_bullet.evaluation.results import (
+    check_results_dir,
+    completion,
+    job_rows,
+    read_meta,
+    recovery_of,
+)
 from d3dwa_bullet.evaluation.stats import t_interval
 from d3dwa_bullet.io import atomic_savefig, atomic_write_text
 from d3dwa_bullet.loading import load_json
@@ -118,6 +124,12 @@ def point_rows(k: int, folder: Path, method: str) -> tuple[Rows, str]:
     if not (folder / "results.csv").is_file():
         raise ResultsError(f"point {k}={folder}: no results.csv (run its d3dwa eval first)")
     check_results_dir(folder)
+    done, listed = completion(folder)
+    if done < listed:
+        raise ResultsError(
+            f"{folder}: {done} of its {listed} episodes are in: the evaluation is incomplete "
+            "(run its d3dwa eval again to resume it)"
+        )
     every = job_rows(folder)
     rows = [r for r in every if r["method"] == method]
     if not rows:
@@ -136,14 +148,6 @@ def point_rows(k: int, folder: Path, method: str) -> tuple[Rows, str]:
             f"{folder}: {len(seeds)} training seed{'s' * (len(seeds) != 1)} of {method!r} "
             f"({shown}); a point of the curve needs {MIN_SEEDS} or more seed-<k> folders"
         )
-    worlds = {r["world"] for r in rows}
-    for s in seeds:
-        have = {r["world"] for r in rows if r["policy_seed"] == s}
-        if have != worlds:
-            raise ResultsError(
-                f"{folder}: seed-{s} ran {len(have)} of the point's {len(worlds)} worlds: the "
-                "evaluation is incomplete (run its d3dwa eval again to resume it)"
-            )
     for metric in METRICS:
         if any(metric_value(r, metric) is None for r in rows):
             raise ResultsError(
@@ -168,9 +172,9 @@ def check_comparable(points: Mapping[int, tuple[Path, Rows]]) -> None:
         got = what(folder, rows)
         for name in ("worlds", "noise", "recovery"):
             if got[name] != first[name]:
-                a, b = (sorted(x) if isinstance(x, set) else x for x in (got[name], first[name]))
-                shown = (f"{len(a)} worlds" if name == "worlds" else a), (
-                    f"{len(b)} worlds" if name == "worlds" else b)  # fmt: skip
+                shown = [f"{len(x)} worlds" if name == "worlds" else
+                         x if isinstance(x, str) else ", ".join(sorted(x))
+                         for x in (got[name], first[name])]  # fmt: skip
                 raise ResultsError(
                     f"points {k} ({folder}) and {k0} ({dir0}) differ in {name}: {shown[0]} vs "
                     f"{shown[1]}{' (not the same ones)' if name == 'worlds' else ''}; a curve "
