@@ -275,9 +275,9 @@ def draw(curve: Mapping[str, Any], out: Path) -> Path:
     for ax, metric in zip(axes, ("success", "score"), strict=True):
         scale = 100.0 if metric == "success" else 1.0
         for p in curve["points"]:
-            ys = [scale * v for v in p[metric]["seeds"].values()]
+            dots = [scale * v for v in p[metric]["seeds"].values()]
             # beside the interval bar, not under it: a seed must stay visible
-            ax.scatter([p["k"] * SEED_DOT] * len(ys), ys, s=14, color="C0", alpha=0.35, lw=0)
+            ax.scatter([p["k"] * SEED_DOT] * len(dots), dots, s=14, color="C0", alpha=0.35, lw=0)
         s = [p[metric] for p in curve["points"]]
         ys = np.array([scale * c["mean"] for c in s])
         err = [ys - [scale * c["low"] for c in s], [scale * c["high"] for c in s] - ys]
