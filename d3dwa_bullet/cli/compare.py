@@ -274,6 +274,7 @@ def _print(
     paired test is given. trained: (side key -> its BARN training worlds, group -> its
     worlds): each side that trained on BARN worlds has its line, and its cells and groups on
     them a mark (``training_worlds``)."""
+    from d3dwa_bullet.evaluation.page_width import fit_prose
     from d3dwa_bullet.evaluation.readings import NO_SCORE, readings_table
     from d3dwa_bullet.evaluation.seed_tables import improvement_table, seed_tables
     from d3dwa_bullet.evaluation.training_worlds import (
@@ -285,7 +286,7 @@ def _print(
 
     training, members = trained
     worlds = sorted({r["world"] for r in rows})
-    print(training_lines(training, worlds), end="")
+    print(fit_prose(training_lines(training, worlds)), end="")
     flag = group_flag(trained_worlds(training))
     marked = [r | {"group": r["group"] + "".join(flag(k, members[r["group"]]) for k in training)}
               for r in records]  # fmt: skip
@@ -305,28 +306,35 @@ def _print(
         "worse in how many pairs, and the one-sided Wilcoxon signed-rank p-value of A > B."
     )
     print(
-        f"P({la} > {lb}) on success per task (world, noise); 95 % stratified bootstrap "
-        f"over runs; 0.5 = no difference.{paired} From {source}.\n"
+        fit_prose(
+            f"P({la} > {lb}) on success per task (world, noise); 95 % stratified bootstrap "
+            f"over runs; 0.5 = no difference.{paired} From {source}.\n"
+        )
     )
     print(improvement_table(marked, key_a, key_b, labels), end="")
     if absent:
         mark = cell_mark(trained_worlds(training))
         print("\n" + seed_tables(rows, [key_a, key_b], worlds, sides, mark), end="")
-        print(f"\n{absent}")
+        print(fit_prose(f"\n{absent}"))
         return
     seeds = {int(r["seed"]) for r in rows}
     if by_seed and len(seeds) > 1:
         print(
-            f"\n{len(seeds)} evaluation seeds share each layout, so these pairs are not "
-            "independent (without noise a fixed or greedy method repeats its episode at every "
-            "seed): `--pair-by layout` is the conservative test (docs/design.md#paired-test)."
+            fit_prose(
+                f"\n{len(seeds)} evaluation seeds share each layout, so these pairs are not "
+                "independent (without noise a fixed or greedy method repeats its episode at "
+                "every seed): `--pair-by layout` is the conservative test "
+                "(docs/design.md#paired-test)."
+            )
         )
     print(
-        f"\nReadings, A = {la}, B = {lb}: paired by layout (each side averaged over its "
-        "training and evaluation seeds there); A - B with its 95 % t interval (success in "
-        "points), the smaller one-sided paired t p-value, TOST's p against the margin; a "
-        "difference reads at p < 0.025 each way, equivalence at TOST p < 0.05 "
-        "(docs/design.md#readings).\n"
+        fit_prose(
+            f"\nReadings, A = {la}, B = {lb}: paired by layout (each side averaged over its "
+            "training and evaluation seeds there); A - B with its 95 % t interval (success in "
+            "points), the smaller one-sided paired t p-value, TOST's p against the margin; a "
+            "difference reads at p < 0.025 each way, equivalence at TOST p < 0.05 "
+            "(docs/design.md#readings).\n"
+        )
     )
     readings = {r["group"]: r["readings"] for r in records}
     lacking = [m for m, r in readings["all"].items() if r.get("why") == NO_SCORE]
@@ -334,4 +342,4 @@ def _print(
     print(readings_table(shown), end="")
     if lacking:
         names = " and ".join(METRIC_NAMES[m] for m in lacking)
-        print(f"\n{names}: {NO_SCORE}; success reads alone.")
+        print(fit_prose(f"\n{names}: {NO_SCORE}; success reads alone."))

@@ -27,6 +27,7 @@ from d3dwa_bullet.evaluation.barn_tables import barn_section
 from d3dwa_bullet.evaluation.floors import FLOORS_NOTE, floor_records, floor_table
 from d3dwa_bullet.evaluation.jobs import figure_name, world_figures
 from d3dwa_bullet.evaluation.noise_axes import AXES
+from d3dwa_bullet.evaluation.page_width import fit_prose, world_span
 from d3dwa_bullet.evaluation.results import (
     check_results_dir,
     completion,
@@ -89,7 +90,8 @@ def eval_markdown(
     apart from another of the same name (renamed: {key: source}, ``jobs.key_apart``) say which
     file they are; the paper track's page of distinct worlds is unchanged. BARN worlds add
     rows per split and difficulty tercile (``barn_tables``). A method that trained on BARN
-    worlds (barn_training) has its line, and its cells on them a mark (``training_worlds``)."""
+    worlds (barn_training) has its line, and its cells on them a mark (``training_worlds``).
+    Every line fits the page's width (``page_width``)."""
     trained = tw.trained_worlds(barn_training or {})
     mark = tw.cell_mark(trained)
     span = f"{seeds[0]}..{seeds[-1]}" if seeds else "none"
@@ -97,7 +99,7 @@ def eval_markdown(
         f"World `{key}` is {source} (keyed apart from another world of that name).\n\n"
         for key, source in (renamed or {}).items()
     )
-    return (
+    return fit_prose(
         f"# {title or 'Evaluation: ' + world_span(worlds)}\n\n"
         f"{run_notes(recovery, policy_notes, scan_filter)}"
         f"{tw.training_lines(barn_training or {}, worlds)}"
@@ -125,18 +127,6 @@ def eval_markdown(
     )
 
 
-TITLE_WORLDS = 8
-"""Worlds a page's title names one by one; more are counted (a BARN split has 50 or 250)."""
-
-
-def world_span(worlds: Sequence[str]) -> str:
-    """The worlds of a page's title: each name, or for more than TITLE_WORLDS the count and
-    the first and last."""
-    if len(worlds) <= TITLE_WORLDS:
-        return ", ".join(worlds)
-    return f"{len(worlds)} worlds, {worlds[0]} to {worlds[-1]}"
-
-
 def floors_section(rows: Sequence[dict[str, Any]], methods: Sequence[str]) -> str:
     """ "Against chance": which floor each learned method cleared (empty without one)."""
     table = floor_table(floor_records(rows, methods))
@@ -152,7 +142,7 @@ def seeds_markdown(
     """table_seeds.md: each training seed's row (fixed methods: one row), with the line and
     marks of a method that trained on BARN worlds (see eval_markdown)."""
     training = barn_training or {}
-    return (
+    return fit_prose(
         f"# Per training seed: {world_span(worlds)}\n\n{tw.training_lines(training, worlds)}"
         "Cells: successes/episodes, mean time to goal of the successes; T = timeout, "
         "C = collision. Score, BARN: the mean episode score over every world (robot form, "
@@ -395,5 +385,5 @@ def write_report(
             where = src.relative_to(policies.parent).as_posix()
             page.append(f"### {label} (`{where}`)\n\n![{name} learning curve]({link})\n\n")
     path = out / "report.md"
-    atomic_write_text(path, "".join(page))
+    atomic_write_text(path, fit_prose("".join(page)))
     return Report(path, kind, done, expected)

@@ -18,6 +18,7 @@ from collections.abc import Callable, Collection, Sequence
 from functools import partial
 
 from d3dwa_bullet.episode_metrics import SCORE_FORM
+from d3dwa_bullet.evaluation.page_width import WorldRow, world_table
 from d3dwa_bullet.evaluation.scores import UNSCORED_NOTE, is_scored
 from d3dwa_bullet.evaluation.seed_stats import Interval, iqm_interval, mean_interval
 from d3dwa_bullet.evaluation.seed_tables import Row, column_scores, condition_table
@@ -54,14 +55,12 @@ def score_tables(
     with an "all" column (mean over worlds), then per method over every world: the mean and
     IQM of the robot form and the mean of BARN's (at most 115 characters wide with the longest
     method label). Rows from before the score: the note instead. mark: the text after a
-    (method, world) cell (a training world's mark, ``training_worlds.cell_mark``)."""
+    (method, world) cell (a training world's mark, ``training_worlds.cell_mark``). Worlds too
+    many for the page's width are rows, methods columns (``page_width.world_table``)."""
     head = f"### Score ({SCORE_FORM}), mean over runs, 95 % interval\n\n"
     if not is_scored(rows):
         return f"{head}{UNSCORED_NOTE}\n"
-    per_world = [
-        "| Method | " + " | ".join(worlds) + " | all |",
-        "|---|" + "---:|" * (len(worlds) + 1),
-    ]
+    per_world: list[WorldRow] = []
     summary = [
         "| Method | mean [95 %] | IQM [95 %] | BARN mean [95 %] |",
         "|---|---:|---:|---:|",
@@ -74,19 +73,17 @@ def score_tables(
         for w in worlds:
             rs = [r for r in mine if r["world"] == w]
             flag = mark(m, w) if mark else ""
-            cells.append(score_cell([column_scores(rs, ROBOT)]) + flag if rs else "")
+            cells.append((score_cell([column_scores(rs, ROBOT)]) + flag if rs else "",))
         robot, barn = _per_world(mine, ROBOT), _per_world(mine, BARN)
-        per_world.append(
-            f"| {method_label(m)} | " + " | ".join(cells) + f" | {score_cell(robot)} |"
-        )
+        per_world.append(WorldRow((method_label(m),), cells, (score_cell(robot),), m))
         summary.append(
             f"| {method_label(m)} | {score_cell(robot)} | {score_cell(robot, iqm_interval)} | "
             f"{score_cell(barn, digits=3)} |"
         )
     return (
         head
-        + "\n".join(per_world)
-        + f"\n\n### Score over every world: {SCORE_FORM} and BARN's official form\n\n"
+        + world_table(("Method",), ("---",), worlds, per_world, tail=("all",))
+        + f"\n### Score over every world: {SCORE_FORM} and BARN's official form\n\n"
         + "\n".join(summary)
         + "\n"
     )

@@ -23,11 +23,13 @@ from __future__ import annotations
 
 from collections import defaultdict
 from collections.abc import Callable, Collection, Mapping, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
 
 from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation.page_width import RIGHT, WorldRow, split_columns, world_table
 from d3dwa_bullet.evaluation.seed_stats import (
     Interval,
     iqm_interval,
@@ -140,9 +142,8 @@ def seed_tables(
     cell (a training world's mark, ``training_worlds.cell_mark``)."""
     cells = _cells(rows)
     named = {m: (m, method_label(m)) for m in methods} | dict(sides or {})
-    header = "| Method | runs | " + " | ".join(worlds) + " | all |"
-    sep = "|---|---|" + "---:|" * (len(worlds) + 1)
-    success, timing = [header, sep], [header, sep]
+    success: list[WorldRow] = []
+    timing: list[WorldRow] = []
     for m in methods:
         mine = [r for r in rows if r["method"] == m]
         if not mine:
@@ -151,24 +152,24 @@ def seed_tables(
         for w in worlds:
             rs = cells.get((m, w), [])
             if not rs:
-                s_cells.append("")
-                t_cells.append("")
+                s_cells.append(("",))
+                t_cells.append(("",))
                 continue
             s, t = success_scores(rs), time_scores(rs)
             s_all.append(s)
             t_all.append(t)
             flag = mark(m, w) if mark else ""
-            s_cells.append(_rate(mean_interval([s])) + flag)
-            t_cells.append(_time(_time_interval([t])) + flag)
-        label = f"| {named[m][1]} | {_runs_label(named[m][0], mine)} | "
-        success.append(label + " | ".join(s_cells) + f" | {_rate(mean_interval(s_all))} |")
-        timing.append(label + " | ".join(t_cells) + f" | {_time(_time_interval(t_all))} |")
+            s_cells.append((_rate(mean_interval([s])) + flag,))
+            t_cells.append((_time(_time_interval([t])) + flag,))
+        lead = (named[m][1], _runs_label(named[m][0], mine))
+        success.append(WorldRow(lead, s_cells, (_rate(mean_interval(s_all)),), m))
+        timing.append(WorldRow(lead, t_cells, (_time(_time_interval(t_all)),), m))
+    table = partial(world_table, ("Method", "runs"), ("---", "---"), worlds, tail=("all",))
     return (
         "### Success rate [%], 95 % interval over runs\n\n"
-        + "\n".join(success)
-        + "\n\n### Time to goal, IQM over runs [s], 95 % interval\n\n"
-        + "\n".join(timing)
-        + "\n"
+        + table(success)
+        + "\n### Time to goal, IQM over runs [s], 95 % interval\n\n"
+        + table(timing, lead_table=False)
     )
 
 
@@ -184,10 +185,7 @@ def per_seed_table(
     evaluation seeds. mark: the text after a (method, world) cell (see seed_tables)."""
     cells = _cells(rows)
     scored = all(r.get("score") is not None for r in rows)
-    lines = [
-        "| Method | training seed | " + " | ".join(worlds) + " | success | score | BARN |",
-        "|---|---:|" + "---:|" * (len(worlds) + 3),
-    ]
+    table: list[WorldRow] = []
     for m in methods:
         mine = [r for r in rows if r["method"] == m]
         seeds = sorted({r["policy_seed"] for r in mine}, key=lambda k: (k is not None, k))
@@ -213,11 +211,14 @@ def per_seed_table(
                 score = f"{np.mean([r['score'] for r in mine_k]):.2f}"
                 barn = f"{np.mean([r['score_barn'] for r in mine_k]):.3f}"
             seed = "--" if k is None else str(k)
-            lines.append(
-                f"| {method_label(m)} | {seed} | " + " | ".join(parts)
-                + f" | {rate} | {score} | {barn} |"
-            )  # fmt: skip
-    return "\n".join(lines) + "\n"
+            title = m + ("" if k is None else f" seed {k}")
+            table.append(
+                WorldRow((method_label(m), seed), [(p,) for p in parts], (rate, score, barn), title)
+            )
+    return world_table(
+        ("Method", "training seed"), ("---", "---:"), worlds, table,
+        tail=("success", "score", "BARN"),
+    )  # fmt: skip
 
 
 def improvement(
@@ -307,7 +308,8 @@ def condition_table(
     column_of is None are left out; an "all layouts" group follows when there are several.
     scores: the per-run scores of one world's rows (default success); cell: the text of a
     cell from the per-world lists of them (default the mean [interval] in %). flag: the text
-    after a row's group for (method, the group's worlds), e.g. how many are training worlds."""
+    after a row's group for (method, the group's worlds), e.g. how many are training worlds.
+    Columns that do not fit the page's width go to a second table (``split_columns``)."""
     cell = cell or (lambda per_world: _rate(mean_interval(per_world)))
     groups = [*layouts, "all layouts"] if len(layouts) > 1 else list(layouts)
     cells: dict[tuple[str, str, str], dict[str, list[Row]]] = defaultdict(lambda: defaultdict(list))
@@ -317,10 +319,7 @@ def condition_table(
             continue
         for g in (layout_of(r), "all layouts"):
             cells[(g, r["method"], column)][r["world"]].append(r)
-    lines = [
-        "| Method | layouts | " + " | ".join(columns) + " |",
-        "|---|---|" + "---:|" * len(columns),
-    ]
+    body = []
     for g in groups:
         for m in methods:
             parts, seen = [], set()
@@ -329,6 +328,6 @@ def condition_table(
                 parts.append(cell([scores(rs) for rs in worlds.values()]) if worlds else "")
                 seen.update(worlds or ())
             if any(parts):
-                label = g + (flag(m, seen) if flag else "")
-                lines.append(f"| {method_label(m)} | {label} | " + " | ".join(parts) + " |")
-    return "\n".join(lines) + "\n"
+                body.append([method_label(m), g + (flag(m, seen) if flag else ""), *parts])
+    header = ["Method", "layouts", *columns]
+    return split_columns(header, ["---", "---", *[RIGHT] * len(columns)], body, keys=2)

@@ -50,6 +50,7 @@ from d3dwa_bullet.evaluation.barn_tables import TERCILE_ORDER, tercile_group
 from d3dwa_bullet.evaluation.floors import FLOORS_NOTE, floor_records, floor_table
 from d3dwa_bullet.evaluation.jobs import Job, evaluate, noise_config_json
 from d3dwa_bullet.evaluation.noise_axes import AXES
+from d3dwa_bullet.evaluation.page_width import fit_prose
 from d3dwa_bullet.evaluation.plotting import sweep_figure
 from d3dwa_bullet.evaluation.policy_config import policy_config_notes
 from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
@@ -265,7 +266,8 @@ def sweep_markdown(
 ) -> str:
     """Per-axis and per-profile tables: successes/episodes, mean time to goal ± 95 % CI. A
     method that trained on BARN worlds (barn_training) has its line first, and its rows of a
-    tercile holding some of them say how many (``training_worlds``)."""
+    tercile holding some of them say how many (``training_worlds``). Every line fits the
+    page's width (``page_width``)."""
     titles = layout_titles(settings)
     training = barn_training or {}
     flag = group_flag(trained_worlds(training))
@@ -318,7 +320,7 @@ def sweep_markdown(
         parts.append(
             f"\n### Against chance (every layout and condition)\n\n{FLOORS_NOTE}\n\n{floors}"
         )
-    return "".join(parts)
+    return fit_prose("".join(parts))
 
 
 def summary_records(rows: Sequence[Mapping[str, Any]], settings: SweepSettings) -> list[dict]:
@@ -373,5 +375,6 @@ def run_sweep(
             sweep_figures(rows, settings, out / "figures")
         if complete:
             page = "# Noise sweep\n\n" + run_notes(config.recovery_name, notes, config.scan_filter)
-            atomic_write_text(out / "sweep.md", page + sweep_markdown(rows, settings, training))
+            page += sweep_markdown(rows, settings, training)
+            atomic_write_text(out / "sweep.md", fit_prose(page))
     return rows, complete

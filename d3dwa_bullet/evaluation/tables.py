@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation.page_width import RIGHT, WorldRow, split_columns, world_table
 from d3dwa_bullet.evaluation.repeats import NOISE_FREE, ONCE_NOTE, repeats_at_every_seed
 from d3dwa_bullet.evaluation.stats import CellStats, Series
 from d3dwa_bullet.limits import MAX_NOTE_CHARS, MAX_NOTE_VALUE_CHARS, cut_text
@@ -44,7 +45,8 @@ def paper_table(
     mark: Callable[[str, str], str] | None = None,
 ) -> str:
     """Table I layout as Markdown; mark: the text after a (method, world)'s Time cell (a
-    training world's mark, ``training_worlds.cell_mark``)."""
+    training world's mark, ``training_worlds.cell_mark``). Worlds too many for the page's width
+    are rows, each method three columns (``page_width.world_table``)."""
     groups = _group(rows)
     means: dict[tuple[str, str, str], float] = {}
     for (m, w), rs in groups.items():
@@ -58,23 +60,20 @@ def paper_table(
             vals = [means[(m, w, key)] for m in methods if (m, w, key) in means]
             if vals:
                 best[(w, key)] = round(min(vals), 2)
-    header = (
-        "| Method | " + " | ".join(f"{w} {label}" for w in worlds for _, label in METRICS) + " |"
-    )
-    sep = "|---|" + "---:|" * (3 * len(worlds))
-    lines = [header, sep]
+    table = []
     for m in methods:
-        cells = []
+        cells: list[tuple[str, ...]] = []
         for w in worlds:
             rs = groups.get((m, w), [])
             ok = [r for r in rs if r["outcome"] == "goal"]
             if not rs:
-                cells += ["", "", ""]
+                cells.append(("", "", ""))
                 continue
             if not ok:
                 failed = "T" if any(r["outcome"] == "timeout" for r in rs) else "C"
-                cells += [failed + (mark(m, w) if mark else ""), "--", "--"]
+                cells.append((failed + (mark(m, w) if mark else ""), "--", "--"))
                 continue
+            texts = []
             for key, _ in METRICS:
                 val = round(means[(m, w, key)], 2)
                 text = f"{val:.2f}"
@@ -84,9 +83,10 @@ def paper_table(
                     text += f" ({len(ok)}/{len(rs)})"
                 if key == "time_s" and mark:
                     text += mark(m, w)
-                cells.append(text)
-        lines.append(f"| {method_label(m)} | " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+                texts.append(text)
+            cells.append(tuple(texts))
+        table.append(WorldRow((method_label(m),), cells, title=m))
+    return world_table(("Method",), ("---",), worlds, table, sub=[label for _, label in METRICS])
 
 
 def _cell(s: CellStats) -> str:
@@ -105,18 +105,16 @@ def series_table(
 ) -> str:
     """A sweep's series as Markdown: a row per (method, layout group), a column per x of
     header (a cell is empty where the series has no such x). flag: the text after a row's
-    layout group for (method, group), e.g. how many of its worlds are training worlds."""
-    lines = [
-        "| Method | layouts | " + " | ".join(str(h) for h in header) + " |",
-        "|---|---|" + "---:|" * len(header),
-    ]
+    layout group for (method, group), e.g. how many of its worlds are training worlds. Levels
+    that do not fit the page's width go to a second table (``split_columns``)."""
+    body = []
     for layout, per_method in series.items():
         for m, points in per_method.items():
             by_x = dict(points)
             cells = [_cell(by_x[x]) if x in by_x else "" for x in header]
-            label = layout + (flag(m, layout) if flag else "")
-            lines.append(f"| {method_label(m)} | {label} | " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+            body.append([method_label(m), layout + (flag(m, layout) if flag else ""), *cells])
+    titles = ["Method", "layouts", *(str(h) for h in header)]
+    return split_columns(titles, ["---", "---", *[RIGHT] * len(header)], body, keys=2)
 
 
 def run_notes(recovery: str, policy_notes: Sequence[str] = (), scan_filter: str = "none") -> str:
