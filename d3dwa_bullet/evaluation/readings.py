@@ -41,6 +41,7 @@ import numpy as np
 from scipy import stats
 
 from d3dwa_bullet.evaluation.margins import margin_text
+from d3dwa_bullet.evaluation.page_width import RIGHT, split_columns
 from d3dwa_bullet.evaluation.paired import (
     MIN_LAYOUTS,
     Row,
@@ -223,12 +224,12 @@ def _value(metric: str, x: float | None, signed: bool = False) -> str:
 def readings_table(readings: Mapping[str, Mapping[str, Mapping[str, Any]]]) -> str:
     """The records of :func:`readings_by_group` as Markdown, one line per (group, metric) in
     their order: each side's mean, A - B with its 95 % interval (success in points), the
-    smaller one-sided p with its direction, TOST's p against the margin, the reading."""
-    lines = [
-        "| tasks | metric (margin) | layouts | A | B | A - B [95 % interval] | p one-sided | "
-        "TOST p | reading |",
-        "|---|---|---:|---:|---:|---|---:|---:|---|",
-    ]
+    smaller one-sided p with its direction, TOST's p against the margin, the reading; columns
+    that do not fit the page's width in a second table (``page_width.split_columns``)."""
+    header = ["tasks", "metric (margin)", "layouts", "A", "B", "A - B [95 % interval]",
+              "p one-sided", "TOST p", "reading"]  # fmt: skip
+    align = ["---", "---", RIGHT, RIGHT, RIGHT, "---", RIGHT, RIGHT, "---"]
+    body = []
     for group, per in readings.items():
         for metric, r in per.items():
             m = f"{metric} ({margin_text(metric, r['margin'])})"
@@ -241,8 +242,6 @@ def readings_table(readings: Mapping[str, Mapping[str, Mapping[str, Any]]]) -> s
                 tost = f"{r['tost_p']:.3g}"
             elif r.get("difference") is not None:
                 diff = _value(metric, r["difference"], True)
-            lines.append(
-                f"| {group} | {m} | {r['layouts']} | {_value(metric, r.get('mean_a'))} | "
-                f"{_value(metric, r.get('mean_b'))} | {diff} | {p} | {tost} | {reading_text(r)} |"
-            )
-    return "\n".join(lines) + "\n"
+            body.append([group, m, str(r["layouts"]), _value(metric, r.get("mean_a")),
+                         _value(metric, r.get("mean_b")), diff, p, tost, reading_text(r)])  # fmt: skip
+    return split_columns(header, align, body, keys=2)

@@ -267,29 +267,28 @@ def improvement_table(
     records: Sequence[Mapping[str, Any]], a: str, b: str, labels: Mapping[str, str] | None = None
 ) -> str:
     """The records of :func:`improvement` as Markdown; labels: a's and b's column labels
-    where they are not the methods' (e.g. one method with and without recovery)."""
+    where they are not the methods' (e.g. one method with and without recovery). Columns that
+    do not fit the page's width go to a second table (``split_columns``)."""
     names = labels or {}
     # a label given is not parsed: one method on both sides is keyed 'random@10 [A]'
     la, lb = (names[m] if m in names else method_label(m) for m in (a, b))
     paired = any("paired_p" in r for r in records)
-    extra = " pairs | A better / worse | paired p (A > B) |" if paired else ""
-    lines = [
-        f"| tasks | n | runs {la} | runs {lb} | P({la} > {lb}) | 95 % interval |{extra}",
-        "|---|---:|---:|---:|---:|---|" + ("---:|---:|---:|" if paired else ""),
-    ]
+    header = ["tasks", "n", f"runs {la}", f"runs {lb}", f"P({la} > {lb})", "95 % interval"]
+    align = ["---", RIGHT, RIGHT, RIGHT, RIGHT, "---"]
+    if paired:
+        header += ["pairs", "A better / worse", "paired p (A > B)"]
+        align += [RIGHT] * 3
+    body = []
     for r in records:
-        line = (
-            f"| {r['group']} | {r['tasks']} | {r['runs_a']} | {r['runs_b']} | {r['p']:.2f} | "
-            f"[{r['low']:.2f}, {r['high']:.2f}] |"
-        )
+        cells = [r["group"], str(r["tasks"]), str(r["runs_a"]), str(r["runs_b"]),
+                 f"{r['p']:.2f}", f"[{r['low']:.2f}, {r['high']:.2f}]"]  # fmt: skip
         if paired:
             p = r.get("paired_p")
-            line += (
-                f" {r.get('paired_units', 0)} | {r.get('paired_wins', 0)} / "
-                f"{r.get('paired_losses', 0)} | {'--' if p is None else f'{p:.3g}'} |"
-            )
-        lines.append(line)
-    return "\n".join(lines) + "\n"
+            cells += [str(r.get("paired_units", 0)),
+                      f"{r.get('paired_wins', 0)} / {r.get('paired_losses', 0)}",
+                      "--" if p is None else f"{p:.3g}"]  # fmt: skip
+        body.append(cells)
+    return split_columns(header, align, body)
 
 
 def condition_table(

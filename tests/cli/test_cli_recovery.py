@@ -90,7 +90,8 @@ def test_a_results_directory_holds_one_recovery_setting(capsys, tmp_path, one_se
     assert "recovery.window 10.0 there, 5.0 here" in line
 
     code, out, _ = run(capsys, "compare", rec, "--against", paper, "--methods", "dwa3,dwa3")
-    assert code == 0 and f"{rec / 'results.csv'} and {paper / 'results.csv'}" in out
+    words = " ".join(out.split())  # prose lines split to the page's width
+    assert code == 0 and f"{rec / 'results.csv'} and {paper / 'results.csv'}" in words
     assert "share only one layout" in out  # one world: no paired test, no NaN p-value
     assert "| DWA III (2,1,1) + recovery nav2 |" in out
     assert "two different methods" in refused(capsys, "compare", rec, "--methods", "dwa3,dwa3")

@@ -23,6 +23,7 @@ from d3dwa_bullet.evaluation.page_width import (
 )
 from d3dwa_bullet.evaluation.report import eval_markdown, seeds_markdown, write_report
 from d3dwa_bullet.evaluation.results import read_results
+from d3dwa_bullet.evaluation.seed_tables import improvement_table
 from d3dwa_bullet.evaluation.sweep import sweep_markdown
 from d3dwa_bullet.evaluation.sweep_settings import SweepSettings
 from d3dwa_bullet.evaluation.training_worlds import MARK
@@ -265,3 +266,14 @@ def test_fit_prose_splits_long_lines_only_and_keeps_quotes():
     assert " ".join(prose).replace("> ", "").split() == (words + " " + words).split()
     quote = out[1 : out.index("short")]
     assert len(quote) > 1 and all(line.startswith("> ") for line in quote)  # still one quote
+
+
+def test_improvement_table_of_the_longest_labels_fits_and_keeps_every_cell():
+    record = dict(group="barn-middle (real) † (12 of 30 trained on)", tasks=30, runs_a=3,
+                  runs_b=3, p=0.61, low=0.52, high=0.7, paired_units=90, paired_wins=40,
+                  paired_losses=21, paired_p=0.0123)  # fmt: skip
+    table = improvement_table([record], "random@10", "random-weights@10")
+    _assert_fits(table)
+    for text in (record["group"], "| 0.61 |", "| [0.52, 0.70] |", "| 40 / 21 |", "| 0.0123 |"):
+        assert text in table
+    assert table.count("| tasks |") == len(table.split("\n\n")) > 1  # split, key kept

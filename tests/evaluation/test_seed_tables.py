@@ -146,7 +146,9 @@ def test_a_held_method_against_itself_is_labelled_not_parsed():
     labels = {a: "Random held 10 steps (filter)", b: "Random held 10 steps"}
     table = improvement_table(improvement(rows, a, b, groups), a, b, labels)
     assert "P(Random held 10 steps (filter) > Random held 10 steps)" in table
-    assert "| all | 1 | 1 | 1 | 1.00 | [1.00, 1.00] |" in table
+    # the labels make it wider than a page: split in two tables, each with the tasks column
+    assert "| all | 1 | 1 | 1 |" in table and "| all | 1.00 | [1.00, 1.00] |" in table
+    assert all(len(line) <= 120 for line in table.splitlines())
 
 
 def test_condition_table_averages_the_worlds_of_a_group_per_profile():
