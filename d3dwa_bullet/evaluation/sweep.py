@@ -50,7 +50,7 @@ from d3dwa_bullet.evaluation.barn_tables import TERCILE_ORDER, tercile_group
 from d3dwa_bullet.evaluation.floors import FLOORS_NOTE, floor_records, floor_table
 from d3dwa_bullet.evaluation.jobs import Job, evaluate, noise_config_json
 from d3dwa_bullet.evaluation.noise_axes import AXES
-from d3dwa_bullet.evaluation.page_width import fit_prose
+from d3dwa_bullet.evaluation.page_width import fit_prose, world_span
 from d3dwa_bullet.evaluation.plotting import sweep_figure
 from d3dwa_bullet.evaluation.policy_config import policy_config_notes
 from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
@@ -206,15 +206,16 @@ def profile_series(
 
 
 def layout_titles(settings: SweepSettings) -> dict[str, str]:
-    """Column titles of the layout groups that the settings have."""
+    """Column titles of the layout groups that the settings have; a group's worlds named one
+    by one, or counted beyond ``page_width.TITLE_WORLDS``."""
     titles = {}
     labels = [("shipped", "shipped worlds"), ("given", "worlds given")]
     labels += [(g, f"BARN {g.removeprefix('barn-')} tercile") for g in TERCILE_ORDER]
     for group, label in labels:
         names = [Path(w).stem if Path(w).suffix else w
                  for w in settings.worlds if given_group(w) == group]  # fmt: skip
-        if names:
-            titles[group] = f"{label}: {', '.join(names)}"
+        if names:  # a whole BARN split's tercile is ~80 worlds: counted, not listed
+            titles[group] = f"{label}: {world_span(names)}"
     seeds = unseen_layout_seeds(settings.layouts)
     if seeds and settings.styles:
         span = f"{seeds[0]}" if len(seeds) == 1 else f"{seeds[0]}..{seeds[-1]}"

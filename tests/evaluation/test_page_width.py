@@ -29,6 +29,7 @@ from d3dwa_bullet.evaluation.sweep_settings import SweepSettings
 from d3dwa_bullet.evaluation.training_worlds import MARK
 from d3dwa_bullet.learning.agents.barn_record import BarnTraining
 from d3dwa_bullet.method_specs import method_label
+from d3dwa_bullet.world.barn_difficulty import barn_tercile
 from tests.support.results_logs import write_results
 
 FIXED = ("dwa1", "dwa2", "dwa3", "random", "random@10", "random-weights@10")
@@ -234,7 +235,10 @@ def test_sweep_page_of_a_whole_split_fits(fifty):
     rows = [r | {"layout": "barn-easy", "axis": "profile", "level": None} for r in fifty]
     page = sweep_markdown(rows, settings, TRAINED)
     _assert_fits(page)
-    assert "BARN-49" in page  # the layout line names its worlds, over several lines
+    easy = [w for w in WORLDS50 if barn_tercile(int(w.removeprefix("BARN-"))) == "easy"]
+    assert len(easy) > 8  # more than a title names: counted, not listed
+    said = f"*barn-easy* = BARN easy tercile: {len(easy)} worlds, {easy[0]} to {easy[-1]}"
+    assert said in " ".join(page.split())
 
 
 def test_split_columns_keeps_keys_and_blocks_and_every_cell():
