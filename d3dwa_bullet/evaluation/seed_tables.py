@@ -321,7 +321,8 @@ def condition_table(
     body = []
     for g in groups:
         for m in methods:
-            parts, seen = [], set()
+            parts: list[str] = []
+            seen: set[str] = set()
             for c in columns:
                 worlds = cells.get((g, m, c))
                 parts.append(cell([scores(rs) for rs in worlds.values()]) if worlds else "")
