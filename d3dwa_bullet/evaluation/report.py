@@ -312,7 +312,7 @@ def _sweep_body(out: Path, meta: dict[str, Any], partial: bool) -> str:
     lines = [
         "## Settings\n\n",
         f"Methods: {', '.join(method_label(m) for m in settings.methods)}. "
-        f"Shipped worlds: {', '.join(settings.worlds)}; unseen generated layouts: "
+        f"Shipped worlds: {world_span(settings.worlds)}; unseen generated layouts: "
         f"{settings.layouts} per style ({', '.join(settings.styles)}). Seeds per condition: "
         f"{settings.seeds} (from {settings.first_seed}). Levels per axis: {settings.levels} "
         "plus the shared noise-free baseline.\n\n",
