@@ -1,6 +1,7 @@
 """The documents: every relative link in README.md and docs/**/*.md resolves, so does every
 ``docs/<page>.md#anchor`` the code and configs cite, the README stays a short front door and
-docs/results.md a current page, not a history.
+docs/results.md a current page, not a history, and every Markdown page keeps its lines within
+the page width (docs/design.md#page-width).
 
 A link resolves when its target file or folder exists, relative to the document; a
 ``#anchor`` into a Markdown file must name an explicit ``<a id="...">`` in it or one of its
@@ -15,6 +16,8 @@ import sys
 from pathlib import Path
 
 import pytest
+
+from d3dwa_bullet.evaluation.page_width import PAGE_WIDTH
 
 ROOT = Path(__file__).resolve().parents[1]
 README_MAX_LINES = 160
@@ -44,6 +47,11 @@ _LINK = re.compile(r"\[[^\]]*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
 _ANCHOR_ID = re.compile(r"<a\s+(?:id|name)=\"([^\"]+)\"")
 _HEADING = re.compile(r"^#{1,6}\s+(.*?)\s*#*\s*$")
 _EXTERNAL = ("http://", "https://", "mailto:")
+# Pilot records stay as they were written; they are not pages kept to the house width.
+PAGES_EXEMPT = (ROOT / "docs" / "pilots",)
+# The README's two install-and-run commands ("Main job", "Tests") are copied as they are, so a
+# line inside a ```bash block of README.md that starts with this may be wider than the page.
+README_COMMAND = "python3 -m venv"
 
 
 def prose_lines(text: str, inline_code: bool = False) -> list[str]:
@@ -122,6 +130,47 @@ def citing_files(root: Path = ROOT) -> list[Path]:
     ]
 
 
+def _ignored_top_folders(root: Path) -> set[str]:
+    """The top-level folders .gitignore names as ``/name/`` (run and results outputs)."""
+    ignore = root / ".gitignore"
+    lines = ignore.read_text(encoding="utf-8").splitlines() if ignore.is_file() else []
+    return {s.strip("/") for s in lines if s.startswith("/") and s.endswith("/")}
+
+
+def markdown_pages(root: Path = ROOT) -> list[Path]:
+    """Every Markdown page of the repository: its ``*.md`` files outside hidden folders, build
+    and cache folders, the output folders .gitignore names, and docs/pilots/."""
+    skip_top = _ignored_top_folders(root)
+    exempt = [root / e.relative_to(ROOT) for e in PAGES_EXEMPT]
+    # Outputs are skipped before the walk: a run folder may hold many thousand files.
+    tops = [p for p in sorted(root.iterdir()) if p.name not in skip_top]
+    pages = []
+    for top in tops:
+        for path in [top] if top.is_file() else sorted(top.rglob("*.md")):
+            parts = path.relative_to(root).parts
+            hidden = any(p.startswith(".") or p in ("__pycache__", "build") for p in parts)
+            if path.suffix != ".md" or hidden or any(p.endswith(".egg-info") for p in parts):
+                continue
+            if not any(path.is_relative_to(e) for e in exempt):
+                pages.append(path)
+    return pages
+
+
+def over_wide_lines(path: Path, readme: bool = False) -> list[str]:
+    """The lines of a Markdown page wider than PAGE_WIDTH, as 'line N: W characters'. With
+    ``readme``, a line inside a ```bash block starting with README_COMMAND is a command, not
+    prose, and is let through."""
+    bad, fence = [], None
+    for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        if _FENCE.match(line):
+            fence = line.strip()[3:].strip() if fence is None else None
+            continue
+        command = readme and fence == "bash" and line.startswith(README_COMMAND)
+        if len(line) > PAGE_WIDTH and not command:
+            bad.append(f"line {n}: {len(line)} characters")
+    return bad
+
+
 @pytest.mark.parametrize("path", DOCUMENTS, ids=lambda p: str(p.relative_to(ROOT)))
 def test_relative_links_resolve(path: Path) -> None:
     assert path.exists(), f"{path} is missing"
@@ -179,6 +228,55 @@ def test_results_is_the_current_page() -> None:
     lines = (ROOT / "docs" / "results.md").read_text(encoding="utf-8").splitlines()
     assert len(lines) < RESULTS_MAX_LINES, f"docs/results.md has {len(lines)} lines"
     assert (ROOT / "docs" / "history.md").is_file()
+
+
+def test_pages_keep_the_page_width() -> None:
+    pages = markdown_pages()
+    # The scan must see the pages, or it passes vacuously.
+    pilots = ROOT / "docs" / "pilots"
+    assert {d for d in DOCUMENTS if not d.is_relative_to(pilots)} <= set(pages)
+    assert not any(p.is_relative_to(pilots) for p in pages)
+    bad = {
+        str(p.relative_to(ROOT)): over_wide_lines(p, readme=p == ROOT / "README.md") for p in pages
+    }
+    assert {page: lines for page, lines in bad.items() if lines} == {}
+
+
+def test_only_the_readme_commands_are_wider() -> None:
+    readme = ROOT / "README.md"
+    text = readme.read_text(encoding="utf-8")
+    # The exception is the two commands, as long as they are: no third line may use it.
+    commands = [line for line in text.splitlines() if line.startswith(README_COMMAND)]
+    assert len(commands) == 2
+    assert len(over_wide_lines(readme)) == sum(len(c) > PAGE_WIDTH for c in commands)
+
+
+def test_over_wide_lines_are_found(tmp_path: Path) -> None:
+    long = "x" * (PAGE_WIDTH + 1)
+    page = tmp_path / "page.md"
+    page.write_text(
+        f"{'y' * PAGE_WIDTH}\n{long}\n```bash\n{README_COMMAND} {long}\n{long}\n```\n"
+        f"{README_COMMAND} {long}\n```\n{README_COMMAND} {long}\n```\n"
+    )
+    wide = PAGE_WIDTH + 1
+    venv = len(README_COMMAND) + 1 + wide
+    assert over_wide_lines(page, readme=True) == [
+        f"line 2: {wide} characters",
+        f"line 5: {wide} characters",
+        f"line 7: {venv} characters",
+        f"line 9: {venv} characters",
+    ]
+    assert over_wide_lines(page)[1] == f"line 4: {venv} characters"
+
+
+def test_markdown_pages_skip_pilots_and_outputs(tmp_path: Path) -> None:
+    (tmp_path / ".gitignore").write_text("/runs/\n*.pyc\n")
+    kept = ("README.md", "docs/a.md", "t/b.md")
+    for rel in (*kept, "docs/pilots/p/plan.md", "runs/x/table.md", ".venv/r.md"):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text("# page\n")
+    found = [p.relative_to(tmp_path).as_posix() for p in markdown_pages(tmp_path)]
+    assert found == list(kept)
 
 
 if __name__ == "__main__":
