@@ -68,8 +68,7 @@ def check_same_run(
                 f"command has {settings.get(key)!r}; use the same value to resume, or another "
                 "--out directory"
             )
-    old, now = before.get("policy_digests", {}), settings.get("policy_digests", {})
-    changed = sorted(k for k in old.keys() & now.keys() if old[k] != now[k])
+    changed = changed_keys(before.get("policy_digests", {}), settings.get("policy_digests", {}))
     if changed:
         raise ResultsError(
             f"{out / 'meta.json'}: its {', '.join(changed)} episodes were driven by other "
@@ -77,21 +76,26 @@ def check_same_run(
             "another --out directory"
         )
     old, now = before.get("method_sources", {}), settings.get("method_sources", {})
-    changed = sorted(k for k in old.keys() & now.keys() if old[k] != now[k])
+    changed = changed_keys(old, now)
     if changed:
         raise ResultsError(
             f"{out / 'meta.json'}: method {changed[0]!r} came from {old[changed[0]]}, this "
             f"command's from {now[changed[0]]}; one directory never mixes two sources under "
             "one name: use another --out directory"
         )
-    sources = dict(zip(before.get("worlds", []), before.get("world_sources", []), strict=False))
-    new = dict(zip(settings.get("worlds", []), settings.get("world_sources", []), strict=False))
-    for name in sorted(sources.keys() & new.keys()):
-        if sources[name] != new[name]:
-            raise ResultsError(
-                f"{out / 'meta.json'}: world {name!r} came from {sources[name]}, this command's "
-                f"from {new[name]}; use another --out directory"
-            )
+    old = dict(zip(before.get("worlds", []), before.get("world_sources", []), strict=False))
+    now = dict(zip(settings.get("worlds", []), settings.get("world_sources", []), strict=False))
+    changed = changed_keys(old, now)
+    if changed:
+        raise ResultsError(
+            f"{out / 'meta.json'}: world {changed[0]!r} came from {old[changed[0]]}, this "
+            f"command's from {now[changed[0]]}; use another --out directory"
+        )
+
+
+def changed_keys(old: Mapping[str, Any], new: Mapping[str, Any]) -> list[str]:
+    """The keys both mappings hold with different values, sorted: what a resumed run changed."""
+    return sorted(k for k in old.keys() & new.keys() if old[k] != new[k])
 
 
 def differences(old: Any, new: Any, prefix: str = "") -> list[tuple[str, Any, Any]]:
