@@ -22,6 +22,12 @@ points, ``--margin-score``, ``--margin-barn``), and one reading of four. Results
 score read on success alone. Two methods that share one layout get everything else and a line
 saying why the paired test and the readings are absent; sharing no layout is refused.
 
+A side whose policy trained on BARN worlds (its directory's meta.json ``settings.barn_training``)
+has a line naming them, and each group holding some of them is flagged
+``† (k of n trained on)`` in both tables (``evaluation.training_worlds``); ``--json`` gives
+each group record (its P(A > B) and its readings) ``trained_on``: {side: {"trained": k,
+"worlds": n}} for each side that trained on k > 0 of its n worlds ({} when neither did).
+
 ``--against DIR2`` takes B's runs from a second directory: the same method with and without
 the recovery layer (``d3dwa compare rec --against norec --methods dwa3,dwa3``), whose runs
 never share a directory. Each side is labelled with its recovery setting.
@@ -213,6 +219,7 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
     )
     from d3dwa_bullet.evaluation.readings import readings_by_group
     from d3dwa_bullet.evaluation.seed_tables import improvement
+    from d3dwa_bullet.evaluation.training_worlds import trained_counts, trained_worlds
     from d3dwa_bullet.method_specs import method_label
     from d3dwa_bullet.world.registry import world_groups
 
@@ -248,6 +255,13 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
             record["readings"] = readings.get(record["group"], {})
     sides = {key_a: (a, labels[key_a]), key_b: (b, labels[key_b])}
     training = trained_sides(out, other, sides)
+    groups = {g: {r["world"] for r in rows if g in ("all", *_groups_of(r, shipped))}
+              for g in (r["group"] for r in records)}  # fmt: skip
+    names = trained_worlds(training)
+    for record in records:  # its P(A > B) and its readings: the same group of worlds
+        worlds = groups[record["group"]]
+        counts = trained_counts(names, worlds).items()
+        record["trained_on"] = {k: {"trained": n, "worlds": len(worlds)} for k, n in counts}
     if args.json:
         print(json_text({"results": str(out), "against": str(other), "a": a, "b": b,
                           "recovery_a": rec_a, "recovery_b": rec_b, "pair_by": args.pair_by,
@@ -255,8 +269,6 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
                           "complete": complete_a and complete_b, "groups": records,
                           "barn_training": {k: t.to_dict() for k, t in training.items()}}))  # fmt: skip
         return
-    groups = {g: {r["world"] for r in rows if g in ("all", *_groups_of(r, shipped))}
-              for g in (r["group"] for r in records)}  # fmt: skip
     _print(args, rows, records, sides, source, absent, (training, groups))
 
 
@@ -288,8 +300,9 @@ def _print(
     worlds = sorted({r["world"] for r in rows})
     print(fit_prose(training_lines(training, worlds)), end="")
     flag = group_flag(trained_worlds(training))
-    marked = [r | {"group": r["group"] + "".join(flag(k, members[r["group"]]) for k in training)}
-              for r in records]  # fmt: skip
+    # a group holding training worlds of A or B is flagged in both tables
+    flagged = {g: g + "".join(flag(k, worlds) for k in training) for g, worlds in members.items()}
+    marked = [r | {"group": flagged[r["group"]]} for r in records]
 
     (key_a, (_, la)), (key_b, (_, lb)) = sides.items()
     labels = {k: label for k, (_, label) in sides.items()}
@@ -338,7 +351,8 @@ def _print(
     )
     readings = {r["group"]: r["readings"] for r in records}
     lacking = [m for m, r in readings["all"].items() if r.get("why") == NO_SCORE]
-    shown = {g: {m: r for m, r in per.items() if m not in lacking} for g, per in readings.items()}
+    shown = {flagged[g]: {m: r for m, r in per.items() if m not in lacking}
+             for g, per in readings.items()}  # fmt: skip
     print(readings_table(shown), end="")
     if lacking:
         names = " and ".join(METRIC_NAMES[m] for m in lacking)

@@ -90,13 +90,19 @@ def cell_mark(trained: Trained | None) -> Callable[[str, str], str]:
     return mark
 
 
+def trained_counts(trained: Trained | None, worlds: Collection[str]) -> dict[str, int]:
+    """Method -> how many of a group's ``worlds`` it trained on, for each method of ``trained``
+    that trained on one or more of them ({} when none did)."""
+    counts = {m: sum(w in names for w in worlds) for m, names in (trained or {}).items()}
+    return {m: k for m, k in counts.items() if k}
+
+
 def group_flag(trained: Trained | None) -> Callable[[str, Collection[str]], str]:
     """For a table row of ``method`` over a group of ``worlds`` (a BARN split or tercile):
     `` † (k of n trained on)`` when k > 0 of them are its training worlds, else ''."""
 
     def flag(method: str, worlds: Collection[str]) -> str:
-        mine = trained.get(method, ()) if trained else ()
-        k = sum(w in mine for w in worlds)
+        k = trained_counts(trained, worlds).get(method, 0)
         return f" {MARK} ({k} of {len(worlds)} trained on)" if k else ""
 
     return flag
