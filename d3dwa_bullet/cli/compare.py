@@ -23,10 +23,12 @@ score read on success alone. Two methods that share one layout get everything el
 saying why the paired test and the readings are absent; sharing no layout is refused.
 
 A side whose policy trained on BARN worlds (its directory's meta.json ``settings.barn_training``)
-has a line naming them, and each group holding some of them is flagged
-``† (k of n trained on)`` in both tables (``evaluation.training_worlds``); ``--json`` gives
-each group record (its P(A > B) and its readings) ``trained_on``: {side: {"trained": k,
-"worlds": n}} for each side that trained on k > 0 of its n worlds ({} when neither did).
+has a line naming them, and each group holding some of them is flagged: ``† (k of n trained
+on)`` in the P(A > B) table, ``† (A: k of n trained on)`` when both sides trained
+(``evaluation.training_worlds``); in the readings, whose long cells leave the group little
+room, ``†`` and a column "trained on" (``k of n``). ``--json`` gives each group record (its
+P(A > B) and its readings) ``trained_on``: {side: {"trained": k, "worlds": n}} for each side
+that trained on k > 0 of its n worlds ({} when neither did).
 
 ``--against DIR2`` takes B's runs from a second directory: the same method with and without
 the recovery layer (``d3dwa compare rec --against norec --methods dwa3,dwa3``), whose runs
@@ -290,7 +292,9 @@ def _print(
     from d3dwa_bullet.evaluation.readings import NO_SCORE, readings_table
     from d3dwa_bullet.evaluation.seed_tables import improvement_table, seed_tables
     from d3dwa_bullet.evaluation.training_worlds import (
+        MARK,
         cell_mark,
+        group_count,
         group_flag,
         trained_worlds,
         training_lines,
@@ -299,10 +303,17 @@ def _print(
     training, members = trained
     worlds = sorted({r["world"] for r in rows})
     print(fit_prose(training_lines(training, worlds)), end="")
-    flag = group_flag(trained_worlds(training))
-    # a group holding training worlds of A or B is flagged in both tables
-    flagged = {g: g + "".join(flag(k, worlds) for k in training) for g, worlds in members.items()}
-    marked = [r | {"group": flagged[r["group"]]} for r in records]
+    both = dict(zip(sides, "AB", strict=True)) if len(training) > 1 else None  # whose flag
+    flag = group_flag(trained_worlds(training), both)
+    marked = [r | {"group": r["group"] + "".join(flag(k, members[r["group"]]) for k in training)}
+              for r in records]  # fmt: skip
+    # the readings' groups: the mark, and their counts in a column (a flagged group is a key
+    # of every part of the split table, and the long reading cell leaves it little room)
+    count = group_count(trained_worlds(training), both)
+    counts = {
+        g: ", ".join(filter(None, (count(k, w) for k in training))) for g, w in members.items()
+    }
+    flagged = {g: g + (f" {MARK}" if counts[g] else "") for g in members}
 
     (key_a, (_, la)), (key_b, (_, lb)) = sides.items()
     labels = {k: label for k, (_, label) in sides.items()}
@@ -353,7 +364,8 @@ def _print(
     lacking = [m for m, r in readings["all"].items() if r.get("why") == NO_SCORE]
     shown = {flagged[g]: {m: r for m, r in per.items() if m not in lacking}
              for g, per in readings.items()}  # fmt: skip
-    print(readings_table(shown), end="")
+    trained_on = {flagged[g]: c for g, c in counts.items()} if any(counts.values()) else None
+    print(readings_table(shown, trained_on), end="")
     if lacking:
         names = " and ".join(METRIC_NAMES[m] for m in lacking)
         print(fit_prose(f"\n{names}: {NO_SCORE}; success reads alone."))

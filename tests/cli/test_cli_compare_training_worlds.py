@@ -38,14 +38,18 @@ def _results(path, training):
     return path
 
 
-def _readings_rows(printed: str) -> dict[str, list[str]]:
-    """The readings table's first part: its first cell (the group) -> its metrics."""
-    part = printed.split("Readings, A =")[1]
-    rows: dict[str, list[str]] = {}
-    for line in part.splitlines():
+def _readings_rows(printed: str) -> dict[str, str]:
+    """The readings table's first part: group (its first cell) -> its 'trained on' cell ('' when
+    the table has no such column); every part of a split table keeps the same groups."""
+    part = printed.split("Readings, A =")[1].split("\n\n| tasks")[1]
+    header, _, *body = part.strip().splitlines()
+    column = [c.strip() for c in header.split("|")[1:-1]][1] == "trained on"
+    rows = {}
+    for line in body:
         cells = [c.strip() for c in line.split("|")[1:-1]]
-        if len(cells) > 2 and cells[0] not in ("tasks", "---"):
-            rows.setdefault(cells[0], []).append(cells[1])
+        rows[cells[0]] = cells[2] if column else ""
+    for other in printed.split("Readings, A =")[1].split("\n\n| tasks")[2:]:
+        assert {ln.split(" | ")[0][2:] for ln in other.strip().splitlines()[2:]} == set(rows)
     return rows
 
 
@@ -58,17 +62,16 @@ def test_the_readings_flag_the_group_with_a_training_world_and_not_the_challenge
     assert main(argv) == 0
     printed = capsys.readouterr().out
     assert all(len(line) <= PAGE_WIDTH for line in printed.splitlines())
-    readings = _readings_rows(printed)
-    trained = f"barn-{barn_tercile(TRAINED)} (real) {MARK} (1 of 2 trained on)"
     assert barn_tercile(CHALLENGE) != barn_tercile(TRAINED)
-    challenge = f"barn-{barn_tercile(CHALLENGE)} (real)"
-    assert set(readings) == {trained, challenge, f"all {MARK} (1 of 3 trained on)"}
-    assert readings[trained] == readings[challenge]  # every metric read in each group
+    trained, challenge = (f"barn-{barn_tercile(i)} (real)" for i in (TRAINED, CHALLENGE))
+    assert _readings_rows(printed) == {
+        f"{trained} {MARK}": "1 of 2",
+        challenge: "",
+        f"all {MARK}": "1 of 3",
+    }
     assert main([*argv, "--json"]) == 0
     groups = {g["group"]: g for g in json.loads(capsys.readouterr().out)["groups"]}
-    assert groups[f"barn-{barn_tercile(TRAINED)} (real)"]["trained_on"] == {
-        "d3dwa": {"trained": 1, "worlds": 2}
-    }
+    assert groups[trained]["trained_on"] == {"d3dwa": {"trained": 1, "worlds": 2}}
     assert groups[challenge]["trained_on"] == {} and "readings" in groups[challenge]
     assert groups["all"]["trained_on"] == {"d3dwa": {"trained": 1, "worlds": 3}}
 
@@ -78,6 +81,29 @@ def test_without_barn_training_no_readings_row_is_flagged(tmp_path, capsys):
     assert main(["compare", str(out), "--methods", "d3dwa,dwa3"]) == 0
     printed = capsys.readouterr().out
     assert MARK not in printed and "trained on" not in printed
-    assert set(_readings_rows(printed)) == {
-        f"barn-{barn_tercile(i)} (real)" for i in (TRAINED, CHALLENGE)
-    } | {"all"}
+    groups = {f"barn-{barn_tercile(i)} (real)" for i in (TRAINED, CHALLENGE)} | {"all"}
+    assert _readings_rows(printed) == dict.fromkeys(groups, "")
+
+
+def test_when_both_sides_trained_each_count_says_whose_worlds(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)  # short directories: each side's label names its own
+    _results(tmp_path / "a", {"d3dwa": {"split": "train", "ids": list(IDS)}})
+    _results(tmp_path / "b", {"d3dwa": {"split": "train", "ids": [OTHER]}})
+    argv = ["compare", "a", "--against", "b", "--methods", "d3dwa,d3dwa"]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    assert all(len(line) <= PAGE_WIDTH for line in printed.splitlines())
+    trained = f"barn-{barn_tercile(TRAINED)} (real)"
+    both = f"{MARK} (A: 1 of 2 trained on) {MARK} (B: 1 of 2 trained on)"
+    assert f"| {trained} {both} |" in printed  # the P(A > B) table
+    assert _readings_rows(printed) == {
+        f"{trained} {MARK}": "A: 1 of 2, B: 1 of 2",
+        f"barn-{barn_tercile(CHALLENGE)} (real)": "",
+        f"all {MARK}": "A: 1 of 3, B: 1 of 3",
+    }
+    assert main([*argv, "--json"]) == 0
+    groups = {g["group"]: g for g in json.loads(capsys.readouterr().out)["groups"]}
+    assert groups[trained]["trained_on"] == {
+        "d3dwa [A]": {"trained": 1, "worlds": 2},
+        "d3dwa [B]": {"trained": 1, "worlds": 2},
+    }
