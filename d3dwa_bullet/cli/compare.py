@@ -22,6 +22,14 @@ points, ``--margin-score``, ``--margin-barn``), and one reading of four. Results
 score read on success alone. Two methods that share one layout get everything else and a line
 saying why the paired test and the readings are absent; sharing no layout is refused.
 
+A side whose policy trained on BARN worlds (its directory's meta.json ``settings.barn_training``)
+has a line naming them, and each group holding some of them is flagged: ``† (k of n trained
+on)`` in the P(A > B) table, ``† (A: k of n trained on)`` when both sides trained
+(``evaluation.training_worlds``); in the readings, whose long cells leave the group little
+room, ``†`` and a column "trained on" (``k of n``). ``--json`` gives each group record (its
+P(A > B) and its readings) ``trained_on``: {side: {"trained": k, "worlds": n}} for each side
+that trained on k > 0 of its n worlds ({} when neither did).
+
 ``--against DIR2`` takes B's runs from a second directory: the same method with and without
 the recovery layer (``d3dwa compare rec --against norec --methods dwa3,dwa3``), whose runs
 never share a directory. Each side is labelled with its recovery setting.
@@ -213,6 +221,7 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
     )
     from d3dwa_bullet.evaluation.readings import readings_by_group
     from d3dwa_bullet.evaluation.seed_tables import improvement
+    from d3dwa_bullet.evaluation.training_worlds import trained_counts, trained_worlds
     from d3dwa_bullet.method_specs import method_label
     from d3dwa_bullet.world.registry import world_groups
 
@@ -248,6 +257,13 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
             record["readings"] = readings.get(record["group"], {})
     sides = {key_a: (a, labels[key_a]), key_b: (b, labels[key_b])}
     training = trained_sides(out, other, sides)
+    groups = {g: {r["world"] for r in rows if g in ("all", *_groups_of(r, shipped))}
+              for g in (r["group"] for r in records)}  # fmt: skip
+    names = trained_worlds(training)
+    for record in records:  # its P(A > B) and its readings: the same group of worlds
+        worlds = groups[record["group"]]
+        counts = trained_counts(names, worlds).items()
+        record["trained_on"] = {k: {"trained": n, "worlds": len(worlds)} for k, n in counts}
     if args.json:
         print(json_text({"results": str(out), "against": str(other), "a": a, "b": b,
                           "recovery_a": rec_a, "recovery_b": rec_b, "pair_by": args.pair_by,
@@ -255,8 +271,6 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
                           "complete": complete_a and complete_b, "groups": records,
                           "barn_training": {k: t.to_dict() for k, t in training.items()}}))  # fmt: skip
         return
-    groups = {g: {r["world"] for r in rows if g in ("all", *_groups_of(r, shipped))}
-              for g in (r["group"] for r in records)}  # fmt: skip
     _print(args, rows, records, sides, source, absent, (training, groups))
 
 
@@ -278,7 +292,9 @@ def _print(
     from d3dwa_bullet.evaluation.readings import NO_SCORE, readings_table
     from d3dwa_bullet.evaluation.seed_tables import improvement_table, seed_tables
     from d3dwa_bullet.evaluation.training_worlds import (
+        MARK,
         cell_mark,
+        group_count,
         group_flag,
         trained_worlds,
         training_lines,
@@ -287,9 +303,17 @@ def _print(
     training, members = trained
     worlds = sorted({r["world"] for r in rows})
     print(fit_prose(training_lines(training, worlds)), end="")
-    flag = group_flag(trained_worlds(training))
+    both = dict(zip(sides, "AB", strict=True)) if len(training) > 1 else None  # whose flag
+    flag = group_flag(trained_worlds(training), both)
     marked = [r | {"group": r["group"] + "".join(flag(k, members[r["group"]]) for k in training)}
               for r in records]  # fmt: skip
+    # the readings' groups: the mark, and their counts in a column (a flagged group is a key
+    # of every part of the split table, and the long reading cell leaves it little room)
+    count = group_count(trained_worlds(training), both)
+    counts = {
+        g: ", ".join(filter(None, (count(k, w) for k in training))) for g, w in members.items()
+    }
+    flagged = {g: g + (f" {MARK}" if counts[g] else "") for g in members}
 
     (key_a, (_, la)), (key_b, (_, lb)) = sides.items()
     labels = {k: label for k, (_, label) in sides.items()}
@@ -338,8 +362,10 @@ def _print(
     )
     readings = {r["group"]: r["readings"] for r in records}
     lacking = [m for m, r in readings["all"].items() if r.get("why") == NO_SCORE]
-    shown = {g: {m: r for m, r in per.items() if m not in lacking} for g, per in readings.items()}
-    print(readings_table(shown), end="")
+    shown = {flagged[g]: {m: r for m, r in per.items() if m not in lacking}
+             for g, per in readings.items()}  # fmt: skip
+    trained_on = {flagged[g]: c for g, c in counts.items()} if any(counts.values()) else None
+    print(readings_table(shown, trained_on), end="")
     if lacking:
         names = " and ".join(METRIC_NAMES[m] for m in lacking)
         print(fit_prose(f"\n{names}: {NO_SCORE}; success reads alone."))

@@ -221,14 +221,23 @@ def _value(metric: str, x: float | None, signed: bool = False) -> str:
     return f"{100 * x:{sign}.1f}" if metric == "success" else f"{x:{sign}.3f}"
 
 
-def readings_table(readings: Mapping[str, Mapping[str, Mapping[str, Any]]]) -> str:
+def readings_table(
+    readings: Mapping[str, Mapping[str, Mapping[str, Any]]],
+    trained_on: Mapping[str, str] | None = None,
+) -> str:
     """The records of :func:`readings_by_group` as Markdown, one line per (group, metric) in
     their order: each side's mean, A - B with its 95 % interval (success in points), the
     smaller one-sided p with its direction, TOST's p against the margin, the reading; columns
-    that do not fit the page's width in a second table (``page_width.split_columns``)."""
+    that do not fit the page's width in a second table (``page_width.split_columns``).
+    trained_on: group -> how many of its worlds a side trained on (``k of n``, '' for none),
+    given when some group holds training worlds: a column after the metric, so the flagged
+    group, kept in every part of a split table, stays short (``training_worlds``)."""
     header = ["tasks", "metric (margin)", "layouts", "A", "B", "A - B [95 % interval]",
               "p one-sided", "TOST p", "reading"]  # fmt: skip
     align = ["---", "---", RIGHT, RIGHT, RIGHT, "---", RIGHT, RIGHT, "---"]
+    if trained_on:
+        header.insert(2, "trained on")
+        align.insert(2, "---")
     body = []
     for group, per in readings.items():
         for metric, r in per.items():
@@ -244,4 +253,6 @@ def readings_table(readings: Mapping[str, Mapping[str, Mapping[str, Any]]]) -> s
                 diff = _value(metric, r["difference"], True)
             body.append([group, m, str(r["layouts"]), _value(metric, r.get("mean_a")),
                          _value(metric, r.get("mean_b")), diff, p, tost, reading_text(r)])  # fmt: skip
+            if trained_on:
+                body[-1].insert(2, trained_on.get(group, ""))
     return split_columns(header, align, body, keys=2)

@@ -90,14 +90,39 @@ def cell_mark(trained: Trained | None) -> Callable[[str, str], str]:
     return mark
 
 
-def group_flag(trained: Trained | None) -> Callable[[str, Collection[str]], str]:
+def trained_counts(trained: Trained | None, worlds: Collection[str]) -> dict[str, int]:
+    """Method -> how many of a group's ``worlds`` it trained on, for each method of ``trained``
+    that trained on one or more of them ({} when none did)."""
+    counts = {m: sum(w in names for w in worlds) for m, names in (trained or {}).items()}
+    return {m: k for m, k in counts.items() if k}
+
+
+def group_count(
+    trained: Trained | None, tags: Mapping[str, str] | None = None
+) -> Callable[[str, Collection[str]], str]:
+    """For ``method`` over a group of ``worlds``: ``k of n`` when k > 0 of them are its
+    training worlds, else ''; with a tag for it (``tags``: method -> 'A', say), ``A: k of n``."""
+
+    def count(method: str, worlds: Collection[str]) -> str:
+        k = trained_counts(trained, worlds).get(method, 0)
+        tag = f"{tags[method]}: " if tags and method in tags else ""
+        return f"{tag}{k} of {len(worlds)}" if k else ""
+
+    return count
+
+
+def group_flag(
+    trained: Trained | None, tags: Mapping[str, str] | None = None
+) -> Callable[[str, Collection[str]], str]:
     """For a table row of ``method`` over a group of ``worlds`` (a BARN split or tercile):
-    `` † (k of n trained on)`` when k > 0 of them are its training worlds, else ''."""
+    `` † (k of n trained on)`` when k > 0 of them are its training worlds, else ''. A row
+    of two methods that both trained flags each with its tag (``tags``: method -> 'A', say):
+    `` † (A: k of n trained on)``."""
+    count = group_count(trained, tags)
 
     def flag(method: str, worlds: Collection[str]) -> str:
-        mine = trained.get(method, ()) if trained else ()
-        k = sum(w in mine for w in worlds)
-        return f" {MARK} ({k} of {len(worlds)} trained on)" if k else ""
+        said = count(method, worlds)
+        return f" {MARK} ({said} trained on)" if said else ""
 
     return flag
 

@@ -15,8 +15,11 @@ from d3dwa_bullet.evaluation.sweep import sweep_markdown
 from d3dwa_bullet.evaluation.sweep_settings import SweepSettings
 from d3dwa_bullet.evaluation.training_worlds import (
     MARK,
+    group_count,
+    group_flag,
     read_barn_training,
     runs_barn_training,
+    trained_counts,
     training_lines,
 )
 from d3dwa_bullet.learning.agents.barn_record import BarnTraining, barn_record
@@ -72,6 +75,18 @@ def test_the_split_and_tercile_rows_say_how_many_of_their_worlds_are_training_wo
     assert f"all layouts {MARK} (1 of 2 trained on)" in groups
     fixed = [c[0] for c in _cells(page, "DWA III (2,1,1)") if c and c[0].startswith("barn")]
     assert fixed and all(MARK not in g for g in fixed)
+
+
+def test_a_group_flag_counts_the_method_s_training_worlds_and_tags_it_when_asked():
+    trained = {"a": {"BARN-1", "BARN-2"}, "b": {"BARN-3"}}
+    group = ["BARN-1", "BARN-2", "BARN-0"]
+    assert trained_counts(trained, group) == {"a": 2}  # b trained on none of them
+    assert group_flag(trained)("a", group) == f" {MARK} (2 of 3 trained on)"
+    assert group_flag(trained)("b", group) == "" and group_flag(None)("a", group) == ""
+    tagged = group_flag(trained, {"a": "A", "b": "B"})
+    assert tagged("a", group) == f" {MARK} (A: 2 of 3 trained on)"
+    assert tagged("b", ["BARN-3"]) == f" {MARK} (B: 1 of 1 trained on)"
+    assert group_count(trained)("a", group) == "2 of 3" and group_count(trained)("b", group) == ""
 
 
 def test_a_challenge_only_page_has_the_line_and_no_mark():
