@@ -52,9 +52,11 @@ CAPLESS_HEIGHT = AXLE_HEIGHT + LIDAR_MOUNT[2] + 0.05
 walls alone; their top and bottom caps are only drawn (:meth:`Simulator._add_obstacles`)."""
 
 
-#: Worlds whose mesh lists :func:`obstacle_mesh` keeps per process (a training run's generated
-#: layouts are new every episode; an evaluation's worlds repeat, episode after episode).
-MESH_CACHE_SIZE = 64
+#: Worlds whose mesh lists :func:`obstacle_mesh` keeps per process: more than BARN's 300, since a
+#: training run on BARN draws one of its 250 train worlds every episode (a list evicted is never
+#: freed, PyBullet holding its items, so a smaller cache would leak one world's lists an episode
+#: again). A generated layout is new every episode, cached or not.
+MESH_CACHE_SIZE = 512
 
 
 @functools.lru_cache(maxsize=MESH_CACHE_SIZE)
@@ -68,7 +70,7 @@ def obstacle_mesh(
     Cached, and the same list objects handed to PyBullet every episode on a world: PyBullet
     keeps a reference to every item of the vertex and index sequences it is given and never
     lets go, so lists built anew each episode grew an evaluation worker by 5-15 MB an episode
-    on BARN (docs/benchmarks.md#memory); the same objects cost that once per world."""
+    on BARN (docs/benchmarks.md#memory); the same objects cost that once per world and process."""
     vertices: list[list[float]] = []
     sides: list[int] = []
     caps: list[int] = []
