@@ -19,14 +19,13 @@ from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import CheckpointError
-from d3dwa_bullet.loading import load_json
+from d3dwa_bullet.learning.agents.policy_terms import read_meta, shown_value
 from d3dwa_bullet.world.barn import BARN_WORLDS, SPLIT_GROUPS, barn_name, barn_split, barn_split_ids
 
 BARN_KEY = "barn"
 """The key of the record in a checkpoint's ``metadata``."""
 TRAINABLE = tuple(s for s in SPLIT_GROUPS if s != "challenge")
 """Splits a run may train on: ``train`` (``challenge`` is refused at load, ``all`` holds it)."""
-_SHOWN = 60  # characters of a bad value kept in a message
 
 
 @dataclass(frozen=True)
@@ -75,13 +74,13 @@ def barn_training(value: object, where: str) -> BarnTraining:
     ids = value.get("ids") if isinstance(value, Mapping) else None
     if split not in TRAINABLE:
         raise CheckpointError(
-            f"{where}.split is {_shown(split)}, expected one of {', '.join(TRAINABLE)} "
+            f"{where}.split is {shown_value(split)}, expected one of {', '.join(TRAINABLE)} "
             "(the BARN split the policy trained on)"
         )
     ok = isinstance(ids, list) and all(type(i) is int for i in ids) and len(set(ids)) == len(ids)
     if not ok or not ids or any(not 0 <= i < BARN_WORLDS or barn_split(i) != split for i in ids):
         raise CheckpointError(
-            f"{where}.ids is {_shown(ids)}, expected distinct numbers of BARN's {split} worlds "
+            f"{where}.ids is {shown_value(ids)}, expected distinct numbers of BARN's {split} worlds "
             "(the worlds the policy trained on)"
         )
     return BarnTraining(str(split), tuple(ids))
@@ -101,12 +100,4 @@ def folder_barn_training(folder: str | os.PathLike[str]) -> BarnTraining | None:
     meta_file = Path(folder) / "meta.json"
     if not meta_file.is_file():
         return None
-    meta = load_json(meta_file, CheckpointError, "checkpoint meta.json")
-    if not isinstance(meta, Mapping):
-        raise CheckpointError(f"{meta_file}: expected a JSON object, got {type(meta).__name__}")
-    return checkpoint_barn_training(meta, str(meta_file))
-
-
-def _shown(value: object) -> str:
-    text = repr(value)
-    return text if len(text) <= _SHOWN else f"{text[: _SHOWN - 3]}..."
+    return checkpoint_barn_training(read_meta(meta_file), str(meta_file))

@@ -49,7 +49,7 @@ def decision_period(value: object, where: str) -> int:
     if number is not None and is_decision_period(number):
         return number
     raise CheckpointError(
-        f"{where} is {_shown(value)}, expected a whole number in [1, {MAX_DECISION_STEPS.value}] "
+        f"{where} is {shown_value(value)}, expected a whole number in [1, {MAX_DECISION_STEPS.value}] "
         "(control steps each chosen action is held)"
     )
 
@@ -60,7 +60,7 @@ def trained_recovery(value: object, where: str) -> str:
     if isinstance(value, str) and value in RECOVERY_KINDS:
         return value
     raise CheckpointError(
-        f"{where} is {_shown(value)}, expected one of {', '.join(RECOVERY_KINDS)} "
+        f"{where} is {shown_value(value)}, expected one of {', '.join(RECOVERY_KINDS)} "
         "(the recovery layer the policy trained inside)"
     )
 
@@ -71,7 +71,7 @@ def trained_scan_filter(value: object, where: str) -> str:
     if isinstance(value, str) and value in SCAN_FILTERS:
         return value
     raise CheckpointError(
-        f"{where} is {_shown(value)}, expected one of {', '.join(SCAN_FILTERS)} "
+        f"{where} is {shown_value(value)}, expected one of {', '.join(SCAN_FILTERS)} "
         "(the scan filter the policy trained behind)"
     )
 
@@ -84,7 +84,7 @@ def checkpoint_terms(meta: Mapping[str, Any], where: str) -> tuple[int, str, str
     extra = meta.get("metadata", {})
     if not isinstance(extra, Mapping):
         raise CheckpointError(
-            f"{where}: metadata is {_shown(extra)}, expected a mapping (it records the "
+            f"{where}: metadata is {shown_value(extra)}, expected a mapping (it records the "
             "policy's decision period, recovery layer and scan filter)"
         )
     return (
@@ -99,8 +99,9 @@ def checkpoint_terms(meta: Mapping[str, Any], where: str) -> tuple[int, str, str
     )
 
 
-def _shown(value: object) -> str:
-    """repr of a value, cut to one short line (a file could hold a long string)."""
+def shown_value(value: object) -> str:
+    """repr of a value, cut to one short line for a message naming a bad value read from a
+    policy's files (a file could hold a long string, or an integer too long to print)."""
     try:
         text = repr(value)
     except ValueError:  # an int of more digits than Python will print
@@ -113,6 +114,15 @@ TERMS = ("decision_steps", "recovery", "observation", "scan_filter")
 terms the policy is driven on; they must agree."""
 
 
+def read_meta(meta_file: Path) -> Mapping[str, Any]:
+    """A checkpoint's meta.json as a mapping; CheckpointError, one line naming the file, when it
+    cannot be read or is not a JSON object."""
+    meta = load_json(meta_file, CheckpointError, "checkpoint meta.json")
+    if not isinstance(meta, Mapping):
+        raise CheckpointError(f"{meta_file}: expected a JSON object, got {type(meta).__name__}")
+    return meta
+
+
 def folder_terms(folder: str | os.PathLike[str]) -> dict[str, object]:
     """The terms a checkpoint folder's policy is driven on, {decision_steps, recovery,
     observation (None when unrecorded), scan_filter}, read from its meta.json and checked against its
@@ -120,9 +130,7 @@ def folder_terms(folder: str | os.PathLike[str]) -> dict[str, object]:
     both values, when they disagree or either is malformed."""
     root = Path(folder)
     meta_file, config_file = root / "meta.json", root / "config.json"
-    meta = load_json(meta_file, CheckpointError, "checkpoint meta.json")
-    if not isinstance(meta, Mapping):
-        raise CheckpointError(f"{meta_file}: expected a JSON object, got {type(meta).__name__}")
+    meta = read_meta(meta_file)
     period, recovery, behind = checkpoint_terms(meta, str(meta_file))
     extra = meta.get("metadata", {})
     terms: dict[str, object] = {
@@ -155,7 +163,7 @@ def folder_terms(folder: str | os.PathLike[str]) -> dict[str, object]:
             continue
         if mine != theirs:
             raise CheckpointError(
-                f"{meta_file}: metadata.{name} is {_shown(mine)} but {config_file} says "
-                f"{_shown(theirs)}; a policy's files must agree on the terms it is driven on"
+                f"{meta_file}: metadata.{name} is {shown_value(mine)} but {config_file} says "
+                f"{shown_value(theirs)}; a policy's files must agree on the terms it is driven on"
             )
     return terms
