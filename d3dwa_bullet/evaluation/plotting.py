@@ -241,13 +241,19 @@ def method_colours(methods: Sequence[str]) -> dict[str, tuple]:
     return {m: _reference_colour(m) or colour(i, m) for i, m in enumerate(methods)}
 
 
-def _save(fig: plt.Figure, path: str | os.PathLike[str]) -> Path:
+def save_figure(fig: plt.Figure, path: str | os.PathLike[str], **kwargs: Any) -> Path:
+    """Write fig to path atomically (``io.atomic_savefig``, ``kwargs`` to ``savefig``), making
+    its folder, and close it whatever happens: every figure the package and its tools draw."""
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
-        return atomic_savefig(fig, out, dpi=110, bbox_inches="tight")
+        return atomic_savefig(fig, out, **kwargs)
     finally:
         plt.close(fig)
+
+
+def _save(fig: plt.Figure, path: str | os.PathLike[str]) -> Path:
+    return save_figure(fig, path, dpi=110, bbox_inches="tight")
 
 
 LEGEND_COLUMNS = 4

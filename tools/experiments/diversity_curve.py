@@ -48,7 +48,7 @@ from d3dwa_bullet.evaluation.results import (
     recovery_of,
 )
 from d3dwa_bullet.evaluation.stats import t_interval
-from d3dwa_bullet.io import atomic_savefig, atomic_write_text
+from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.resources import policies_dir
 from d3dwa_bullet.seed_dirs import parse_seeds, seed_dir
@@ -270,6 +270,8 @@ def draw(curve: Mapping[str, Any], out: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from d3dwa_bullet.evaluation.plotting import save_figure  # with matplotlib, for the figure only
+
     fig, axes = plt.subplots(1, 2, figsize=(8.0, 3.6))
     ks = [p["k"] for p in curve["points"]]
     for ax, metric in zip(axes, ("success", "score"), strict=True):
@@ -297,11 +299,7 @@ def draw(curve: Mapping[str, Any], out: Path) -> Path:
                  f"{curve['noise']}, recovery {curve['recovery']})\n{a} against {b} "
                  f"worlds, success: {said}", fontsize=9)  # fmt: skip
     fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        return atomic_savefig(fig, out, dpi=110)
-    finally:
-        plt.close(fig)
+    return save_figure(fig, out, dpi=110)
 
 
 def curve_of(

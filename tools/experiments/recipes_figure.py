@@ -22,7 +22,6 @@ from typing import Any
 from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation.results import job_rows
 from d3dwa_bullet.evaluation.sweep import profile_of
-from d3dwa_bullet.io import atomic_savefig
 from tools.entry import ToolParser, fail, tool_main
 from tools.experiments.headroom import success
 
@@ -77,6 +76,8 @@ def draw(data: Mapping[str, Mapping[str, Mapping[str, float]]], out: Path, title
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from d3dwa_bullet.evaluation.plotting import save_figure  # with matplotlib, for the figure only
+
     labels = list(data)
     profiles = list(next(iter(data.values())))
     step = 0.7 / max(len(labels) - 1, 1)
@@ -103,11 +104,7 @@ def draw(data: Mapping[str, Mapping[str, Mapping[str, float]]], out: Path, title
         ax.axvline(j - 0.5, color="0.85", lw=0.8)
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        return atomic_savefig(fig, out, dpi=110)
-    finally:
-        plt.close(fig)
+    return save_figure(fig, out, dpi=110)
 
 
 @tool_main
