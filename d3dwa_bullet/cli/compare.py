@@ -301,15 +301,16 @@ def _print(
     )
 
     training, members = trained
+    trained_names = trained_worlds(training)
     worlds = sorted({r["world"] for r in rows})
     print(fit_prose(training_lines(training, worlds)), end="")
     both = dict(zip(sides, "AB", strict=True)) if len(training) > 1 else None  # whose flag
-    flag = group_flag(trained_worlds(training), both)
+    flag = group_flag(trained_names, both)
     marked = [r | {"group": r["group"] + "".join(flag(k, members[r["group"]]) for k in training)}
               for r in records]  # fmt: skip
     # the readings' groups: the mark, and their counts in a column (a flagged group is a key
     # of every part of the split table, and the long reading cell leaves it little room)
-    count = group_count(trained_worlds(training), both)
+    count = group_count(trained_names, both)
     counts = {
         g: ", ".join(filter(None, (count(k, w) for k in training))) for g, w in members.items()
     }
@@ -337,7 +338,7 @@ def _print(
     )
     print(improvement_table(marked, key_a, key_b, labels), end="")
     if absent:
-        mark = cell_mark(trained_worlds(training))
+        mark = cell_mark(trained_names)
         print("\n" + seed_tables(rows, [key_a, key_b], worlds, sides, mark), end="")
         print(fit_prose(f"\n{absent}"))
         return
