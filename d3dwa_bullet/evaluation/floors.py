@@ -81,20 +81,23 @@ def floor_records(rows: Sequence[Mapping[str, Any]], methods: Sequence[str]) -> 
 
 
 def floor_table(records: Sequence[Mapping[str, Any]]) -> str:
-    """One row per learned method: P(> each floor) with its interval, and which it cleared."""
+    """One row per learned method and floor: P(method > floor) with its interval, and whether
+    it cleared that floor. A row per floor keeps the table narrow however long a method's
+    label (docs/design.md#page-width); the method is named on its first row."""
     if not records:
         return ""
-    by_method: dict[str, list[Mapping[str, Any]]] = {}
+    lines = [
+        "| Method | Floor | P(method > floor) [95 % interval] | Cleared |",
+        "|---|---|---:|---|",
+    ]
+    shown: set[str] = set()
     for r in records:
-        by_method.setdefault(r["method"], []).append(r)
-    lines = ["| Method | floor: P(method > floor) [95 % interval] | cleared |", "|---|---|---|"]
-    for m, recs in by_method.items():
-        cells = "; ".join(
-            f"`{r['floor']}`: {r['p']:.2f} [{r['low']:.2f}, {r['high']:.2f}]" for r in recs
-        )
-        cleared = ", ".join(f"`{r['floor']}`" for r in recs if r["cleared"]) or "none"
-        if any(r.get("reference_only") for r in recs):
-            cells = f"no action set (a velocity planner), no floor; reference {cells}"
-            cleared = f"{cleared} (reference, not a floor)"
-        lines.append(f"| {method_label(m)} | {cells} | {cleared} |")
+        m = r["method"]
+        label = "" if m in shown else method_label(m)
+        shown.add(m)
+        floor, cleared = f"`{r['floor']}`", "yes" if r["cleared"] else "no"
+        if r.get("reference_only"):  # a velocity planner: no action set, so no floor
+            floor = f"{floor} (no action set: a reference, not a floor)"
+        p = f"{r['p']:.2f} [{r['low']:.2f}, {r['high']:.2f}]"
+        lines.append(f"| {label} | {floor} | {p} | {cleared} |")
     return "\n".join(lines) + "\n"

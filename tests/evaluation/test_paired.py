@@ -134,7 +134,8 @@ def test_the_floor_table_says_which_floor_a_learned_method_cleared() -> None:
     records = floor_records(rows, ["random", "random@10", "d3dwa"])
     assert [(r["floor"], r["cleared"]) for r in records] == [("random", True), ("random@10", True)]
     table = floor_table(records)
-    assert "| D3DWA | `random`: 1.00" in table and "| `random`, `random@10` |" in table
+    assert "| D3DWA | `random` | 1.00 [" in table and "|  | `random@10` | " in table
+    assert table.count("| yes |") == 2 and all(len(line) <= 120 for line in table.splitlines())
     late = [r for r in rows if not (r["method"] == "d3dwa" and r["world"] != "L0")]
     late = [r for r in late if r["method"] != "random@10" or r["world"] != "L0"]
     assert [r["floor"] for r in floor_records(late, ["d3dwa"])] == ["random"]  # no shared task
