@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from d3dwa_bullet.cli import options
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.cli.options import default_methods
 from d3dwa_bullet.controllers import default_policy_path
@@ -61,5 +62,16 @@ def test_an_unknown_observation_kind_in_a_training_config(tmp_path, capsys):
 def test_the_main_jobs_default_methods_are_the_papers_with_a_shipped_policy() -> None:
     methods = default_methods()
     assert methods[:3] == ["dwa1", "dwa2", "dwa3"] and set(REFERENCE) <= set(methods)
-    for method in LEARNED:
-        assert (method in methods) == default_policy_path(method).exists()
+    for method in LEARNED:  # those trained on BARN are named, never a default
+        shipped = default_policy_path(method).exists() and not method.endswith("-barn")
+        assert (method in methods) == shipped
+
+
+def test_a_barn_trained_policy_is_not_a_default_method(tmp_path, monkeypatch) -> None:
+    def every_policy_exists(method: str) -> Path:
+        return tmp_path  # exists
+
+    monkeypatch.setattr(options, "default_policy_path", every_policy_exists)
+    methods = options.default_methods()
+    assert "d3dwa" in methods and "d3dwa-dr" in methods
+    assert not [m for m in methods if m.endswith("-barn")]
