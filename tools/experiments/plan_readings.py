@@ -1,0 +1,211 @@
+"""The readings a committed plan asks for, from its finished results directory, in one table.
+
+A plan (docs/pilots/*/plan.md) fixes its cells, its margins and its rule before its sweep
+runs; this tool takes exactly those readings, once, at the plan's N: ``d3dwa compare``'s rule
+(docs/design.md#readings) on every cell, under each profile, paired by layout (each side
+averaged over its training and evaluation seeds there). It refuses a directory that is not
+finished: the plans read once, and a partial directory is a progress report, not an answer.
+
+- ``--plan yardstick``: docs/pilots/yardstick-barn/plan.md's eight headline pairs.
+- ``--plan barn-trained``: docs/pilots/barn-trained/plan.md's cells on BARN ``challenge``.
+- ``--plan barn-trained-r-style``: that plan's R-style cells (each BARN-trained method
+  against its shipped twin).
+- ``--pair A,B`` (repeatable) for cells of your own; B may be ``best-fixed``.
+
+``best-fixed`` is, under each profile, the fixed DWA (``dwa1``, ``dwa2``, ``dwa3``, those the
+directory holds) with the highest mean robot score over that profile's episodes in the same
+directory, as the BARN-trained plan defines it. The table names which one it was.
+
+    python -m tools.experiments.plan_readings runs/barn-trained/challenge --plan barn-trained
+    python -m tools.experiments.plan_readings runs/yardstick-barn --plan yardstick --json
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from statistics import fmean
+from typing import Any
+
+from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation.margins import MARGIN_OPTIONS, MARGINS, check_margin
+from d3dwa_bullet.evaluation.page_width import fit_prose
+from d3dwa_bullet.evaluation.paired import Unit, metric_value
+from d3dwa_bullet.evaluation.readings import readings_by_group, readings_table
+from d3dwa_bullet.evaluation.results import check_results_dir, completion, job_rows
+from d3dwa_bullet.method_specs import FIXED
+from tools.entry import ToolParser, tool_main
+
+BEST_FIXED = "best-fixed"
+"""The B of a cell that stands for the best fixed DWA of each profile."""
+
+Rows = Sequence[Mapping[str, Any]]
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A committed plan's cells (A, B) and its margins (metric -> margin)."""
+
+    page: str
+    pairs: tuple[tuple[str, str], ...]
+    margins: Mapping[str, float] = field(default_factory=lambda: dict(MARGINS))
+
+
+_BARN = ("d3dwa-barn", "d3dwa-weights-barn", "d3dwa-dr-barn")
+PLANS = {
+    "yardstick": Plan(
+        "docs/pilots/yardstick-barn/plan.md",
+        (
+            ("d3dwa", "d3dwa-weights"),
+            ("d3dwa-dr", "d3dwa"),
+            ("d3dwa-dr", "dwa3"),
+            ("d3dwa", "random@10"),
+            ("d3dwa-dr", "random@10"),
+            ("d3dwa-weights", "random-weights@10"),
+            ("d3dwa", "dwa3"),
+            ("d3dwa-weights", "dwa3"),
+        ),
+        MARGINS | {"success": 0.05},
+    ),  # fmt: skip
+    "barn-trained": Plan(
+        "docs/pilots/barn-trained/plan.md",
+        (
+            ("d3dwa-barn", BEST_FIXED),
+            ("d3dwa-barn", "random@10"),
+            ("d3dwa-dr-barn", "d3dwa-barn"),
+            ("d3dwa-dr-barn", BEST_FIXED),
+            ("d3dwa-barn", "d3dwa-weights-barn"),
+            ("d3dwa-dr-barn", "random@10"),
+            ("d3dwa-weights-barn", "random-weights@10"),
+            *((m, m.removesuffix("-barn")) for m in _BARN),
+        ),
+    ),  # fmt: skip
+    "barn-trained-r-style": Plan(
+        "docs/pilots/barn-trained/plan.md", tuple((m, m.removesuffix("-barn")) for m in _BARN)
+    ),
+}
+"""The committed plans, by name: what each reads is fixed by its page, never by a result."""
+
+
+def finished_rows(out: Path) -> list[dict[str, Any]]:
+    """The rows of a finished results directory; ResultsError naming the directory when it is
+    not one, or when episodes of its job list are still missing."""
+    if not (out / "results.csv").is_file():
+        raise ResultsError(f"{out}: not a results directory (no results.csv)")
+    check_results_dir(out)
+    rows = job_rows(out)
+    done, expected = completion(out, rows)
+    if done != expected:
+        raise ResultsError(
+            f"{out}: {done} of {expected} episodes finished; a plan reads once, at its N "
+            "(a partial directory is a progress report: `d3dwa compare` prints one)"
+        )
+    return rows
+
+
+def best_fixed(rows: Rows) -> dict[str, tuple[str, float]]:
+    """Profile -> (the fixed DWA with the highest mean robot score under it, that mean); the
+    first of FIXED's order on a tie. ResultsError when the rows hold no fixed DWA."""
+    out: dict[str, tuple[str, float]] = {}
+    for profile in dict.fromkeys(r["noise"] for r in rows):
+        means = {}
+        for m in FIXED:
+            values = [metric_value(r, "score") for r in rows
+                      if r["method"] == m and r["noise"] == profile]  # fmt: skip
+            if values and None not in values:
+                means[m] = fmean(v for v in values if v is not None)
+        if not means:
+            raise ResultsError(f"no fixed DWA with a score under {profile!r} for {BEST_FIXED}")
+        out[profile] = max(means.items(), key=lambda kv: kv[1])  # max keeps the first on a tie
+    return out
+
+
+def read_cells(
+    rows: Rows, pairs: Sequence[tuple[str, str]], margins: Mapping[str, float]
+) -> list[dict[str, Any]]:
+    """One record per (cell, profile): {"a", "b", "profile", "readings": {metric: reading}}
+    (``readings_by_group``'s records, the profile the group). ResultsError naming a method of a
+    cell the rows lack."""
+    present = {r["method"] for r in rows}
+    for name in dict.fromkeys(m for pair in pairs for m in pair):  # the cells' order
+        if name != BEST_FIXED and name not in present:
+            raise ResultsError(
+                f"no rows of method {name!r} (present: {', '.join(sorted(present))})"
+            )
+    best = best_fixed(rows) if any(b == BEST_FIXED for _, b in pairs) else {}
+    out = []
+    for a, b in pairs:
+        for profile in dict.fromkeys(r["noise"] for r in rows):
+            other = best[profile][0] if b == BEST_FIXED else b
+            here = [r for r in rows if r["noise"] == profile and r["method"] in (a, other)]
+            groups: dict[Unit, list[str]] = {(r["world"], profile, None): [profile] for r in here}
+            readings = readings_by_group(here, a, other, groups, margins).get(profile)
+            if readings is None:  # no layout both sides ran under this profile
+                continue
+            record = {"a": a, "b": other, "profile": profile, "readings": readings}
+            if b == BEST_FIXED:
+                record["best_fixed_score"] = best[profile][1]
+            out.append(record)
+    return out
+
+
+def markdown(records: Sequence[Mapping[str, Any]], plan: str) -> str:
+    """A section per cell: its title (B named as the best fixed DWA where it is one), then
+    ``readings_table`` with a row per (profile, metric)."""
+    parts = [f"Readings of {plan}: paired by layout, each side averaged over its seeds there; "
+             "success in points (docs/design.md#readings).\n"]  # fmt: skip
+    cells: dict[tuple[str, str | bool], list[Mapping[str, Any]]] = {}
+    for r in records:
+        cells.setdefault((r["a"], "best_fixed_score" in r or r["b"]), []).append(r)
+    for (a, b), per in cells.items():
+        if b is True:
+            named = ", ".join(
+                f"{r['profile']}: `{r['b']}` ({r['best_fixed_score']:.3f})" for r in per
+            )
+            title = f"`{a}` (A) against the best fixed DWA (B)\n\nB by mean robot score: {named}."
+        else:
+            title = f"`{a}` (A) against `{b}` (B)"
+        table = readings_table({r["profile"]: r["readings"] for r in per})
+        parts.append(f"### {title}\n\n{table}")
+    return fit_prose("\n".join(parts))
+
+
+@tool_main
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = ToolParser(prog="plan_readings", description=__doc__.split("\n")[0])
+    parser.add_argument("results", type=Path, help="the plan's finished results directory")
+    parser.add_argument(
+        "--plan", choices=sorted(PLANS), help="a committed plan's cells and margins"
+    )
+    parser.add_argument("--pair", action="append", default=[], metavar="A,B",
+                        help=f"a cell of your own (repeatable); B may be {BEST_FIXED}")  # fmt: skip
+    for metric, option in MARGIN_OPTIONS.items():
+        parser.add_argument(option, type=float, metavar="M",
+                            help=f"{metric}'s margin for --pair cells (a plan's are its own)")  # fmt: skip
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args(argv)
+    if bool(args.plan) == bool(args.pair):
+        parser.error("give either --plan or --pair")
+    given = {m: getattr(args, o[2:].replace("-", "_")) for m, o in MARGIN_OPTIONS.items()}
+    if args.plan:
+        if any(v is not None for v in given.values()):
+            parser.error(f"--plan {args.plan} reads at its own committed margins; no --margin-*")
+        plan = PLANS[args.plan]
+        pairs, margins, name = list(plan.pairs), dict(plan.margins), plan.page
+    else:
+        pairs, name = [], "the given cells"
+        for text in args.pair:
+            names = [m.strip() for m in text.split(",")]
+            if len(names) != 2 or not all(names) or names[0] == names[1]:
+                parser.error(f"--pair needs two different methods A,B, got {text!r}")
+            pairs.append((names[0], names[1]))
+        margins = {m: MARGINS[m] if v is None else check_margin(v, m) for m, v in given.items()}
+    records = read_cells(finished_rows(args.results), pairs, margins)
+    print(json.dumps(records, indent=1) if args.json else markdown(records, name), end="")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
