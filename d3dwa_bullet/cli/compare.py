@@ -332,7 +332,7 @@ def _print(
     )
     print(
         fit_prose(
-            f"P({la} > {lb}) on success per task (world, noise); 95 % stratified bootstrap "
+            f"P(A > B), A = {la}, B = {lb}, on success per task (world, noise); 95 % stratified bootstrap "
             f"over runs; 0.5 = no difference.{paired} From {source}.\n"
         )
     )

@@ -29,7 +29,13 @@ from typing import Any
 import numpy as np
 
 from d3dwa_bullet.errors import ResultsError
-from d3dwa_bullet.evaluation.page_width import RIGHT, WorldRow, split_columns, world_table
+from d3dwa_bullet.evaluation.page_width import (
+    PAGE_WIDTH,
+    RIGHT,
+    WorldRow,
+    split_columns,
+    world_table,
+)
 from d3dwa_bullet.evaluation.seed_stats import (
     Interval,
     iqm_interval,
@@ -268,10 +274,14 @@ def improvement_table(
 ) -> str:
     """The records of :func:`improvement` as Markdown; labels: a's and b's column labels
     where they are not the methods' (e.g. one method with and without recovery). Columns that
-    do not fit the page's width go to a second table (``split_columns``)."""
+    do not fit the page's width go to a second table (``split_columns``); labels too long for
+    a column of their own (two results directories' paths) are written A and B, as the page's
+    text names them."""
     names = labels or {}
     # a label given is not parsed: one method on both sides is keyed 'random@10 [A]'
     la, lb = (names[m] if m in names else method_label(m) for m in (a, b))
+    if len(f"P({la} > {lb})") > PAGE_WIDTH // 2:
+        la, lb = "A", "B"
     paired = any("paired_p" in r for r in records)
     header = ["tasks", "n", f"runs {la}", f"runs {lb}", f"P({la} > {lb})", "95 % interval"]
     align = ["---", RIGHT, RIGHT, RIGHT, RIGHT, "---"]

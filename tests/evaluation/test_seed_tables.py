@@ -149,6 +149,11 @@ def test_a_held_method_against_itself_is_labelled_not_parsed():
     # the labels make it wider than a page: split in two tables, each with the tasks column
     assert "| all | 1 | 1 | 1 |" in table and "| all | 1.00 | [1.00, 1.00] |" in table
     assert all(len(line) <= 120 for line in table.splitlines())
+    # two directories' paths in the labels: too long for a column, so A and B name the sides
+    long = {a: f"Random held 10 steps ({'runs/' * 12}a)", b: f"Random held 10 steps ({'x/' * 20})"}
+    table = improvement_table(improvement(rows, a, b, groups), a, b, long)
+    assert "| runs A | runs B | P(A > B) |" in table and "runs/" not in table
+    assert all(len(line) <= 120 for line in table.splitlines())
 
 
 def test_condition_table_averages_the_worlds_of_a_group_per_profile():
