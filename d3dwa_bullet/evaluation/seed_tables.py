@@ -280,7 +280,8 @@ def improvement_table(
     names = labels or {}
     # a label given is not parsed: one method on both sides is keyed 'random@10 [A]'
     la, lb = (names[m] if m in names else method_label(m) for m in (a, b))
-    if len(f"P({la} > {lb})") > PAGE_WIDTH // 2:
+    widest_group = max((len(r["group"]) for r in records), default=0)
+    if len(f"| {'-' * widest_group} | P({la} > {lb}) |") > PAGE_WIDTH:  # not even on its own
         la, lb = "A", "B"
     paired = any("paired_p" in r for r in records)
     header = ["tasks", "n", f"runs {la}", f"runs {lb}", f"P({la} > {lb})", "95 % interval"]

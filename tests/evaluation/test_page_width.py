@@ -280,4 +280,10 @@ def test_improvement_table_of_the_longest_labels_fits_and_keeps_every_cell():
     _assert_fits(table)
     for text in (record["group"], "| 0.61 |", "| [0.52, 0.70] |", "| 40 / 21 |", "| 0.0123 |"):
         assert text in table
+    # the two floors' labels are too long for a column of their own: A and B, as compare's
+    # text names them; a shorter pair keeps its labels, split into tables that fit
+    assert "| P(A > B) |" in table
+    table = improvement_table([record], "d3dwa-history-dr", "dwa3")
+    _assert_fits(table)
+    assert "P(D3DWA" in table and "| P(A > B) |" not in table
     assert table.count("| tasks |") == len(table.split("\n\n")) > 1  # split, key kept

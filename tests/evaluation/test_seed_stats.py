@@ -55,3 +55,43 @@ def test_bad_input_is_refused() -> None:
         mean_interval([[np.nan, 1]])
     with pytest.raises(ValueError, match="tasks"):
         probability_of_improvement([[1]], [[1], [0]])
+
+
+def _one_at_a_time(tasks, statistic):
+    """The stratified bootstrap with a scalar statistic called once per resample (SciPy's
+    unvectorised path): what the vectorised intervals must equal, value for value."""
+    from scipy import stats
+
+    tasks = [np.asarray(t, dtype=np.float64) for t in tasks]
+    free = [i for i, t in enumerate(tasks) if np.ptp(t) > 0]
+
+    def resampled(*xs):
+        full = list(tasks)
+        for i, x in zip(free, xs, strict=True):
+            full[i] = x
+        return statistic(full)
+
+    result = stats.bootstrap([tasks[i] for i in free], resampled, n_resamples=2000,
+                             confidence_level=0.95, method="percentile", vectorized=False,
+                             paired=False, rng=np.random.default_rng(0))  # fmt: skip
+    return result.confidence_interval.low, result.confidence_interval.high
+
+
+def test_the_vectorised_bootstrap_gives_the_one_at_a_time_interval_exactly() -> None:
+    rng = np.random.default_rng(7)
+    for n_tasks in (2, 3, 9, 50):  # 8 and more tasks: the sum's order matters to the last bit
+        tasks = [rng.random(rng.integers(2, 6)) * 40 for _ in range(n_tasks)]
+        tasks[0] = np.full(3, 5.0)  # a task that repeats: held fixed, not resampled
+        others = [rng.integers(0, 2, 5).astype(float) for _ in range(n_tasks)]
+        mean = _one_at_a_time(tasks, lambda full: np.mean([np.mean(t) for t in full]))
+        assert mean_interval(tasks)[1:] == mean
+        pooled = _one_at_a_time(tasks, lambda full: iqm(np.concatenate(full)))
+        assert iqm_interval(tasks)[1:] == pooled
+
+        def p_of_improvement(full, n=n_tasks):
+            d = [full[i][:, None] - full[n + i][None, :] for i in range(n)]
+            return np.mean([np.mean(x > 0) + 0.5 * np.mean(x == 0) for x in d])
+
+        assert probability_of_improvement(tasks, others)[1:] == _one_at_a_time(
+            [*tasks, *others], p_of_improvement
+        )
