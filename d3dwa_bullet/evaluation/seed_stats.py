@@ -27,6 +27,9 @@ CONFIDENCE = 0.95
 RESAMPLES = 2000
 SEED = 0
 """Fixed, so the same results give the same interval."""
+VECTORISED = True
+"""SciPy hands the statistics a batch of resamples at once; False: one resample at a time,
+the same interval far slower (tools/bench/bench_report.py measures the two)."""
 
 
 class Interval(NamedTuple):
@@ -96,7 +99,7 @@ def _bootstrap(
         n_resamples=resamples,
         confidence_level=confidence,
         method="percentile",
-        vectorized=True,
+        vectorized=VECTORISED,
         paired=False,  # each task's seeds are resampled on their own: a stratified bootstrap
         rng=np.random.default_rng(seed),
     )
