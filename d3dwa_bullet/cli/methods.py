@@ -6,14 +6,25 @@ from __future__ import annotations
 import argparse
 
 from d3dwa_bullet.cli.output import json_text
+from d3dwa_bullet.controllers import default_policy_path
 from d3dwa_bullet.external.protocol import ENTRY_POINT_GROUP, INTERFACE_VERSION
-from d3dwa_bullet.method_specs import METHODS, method_family, method_label
+from d3dwa_bullet.method_specs import LEARNED, METHODS, method_family, method_label
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("methods", help="list the built-in methods and the installed external ones")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_methods)
+
+
+def shipped_policy(method: str) -> str:
+    """What ships for a learned method: its policy's training seeds, or that none does yet
+    (a policy trained elsewhere is still taken with --policy)."""
+    seeds = len(list(default_policy_path(method).glob("seed-*/meta.json")))
+    single = (default_policy_path(method) / "meta.json").is_file()
+    if seeds or single:
+        return f"shipped policy, {seeds or 1} training seed{'s' if seeds > 1 else ''}"
+    return "no shipped policy: train one, or pass --policy DIR"
 
 
 def cmd_methods(args: argparse.Namespace) -> int:
@@ -23,6 +34,7 @@ def cmd_methods(args: argparse.Namespace) -> int:
 
     rows = [
         {"name": m, "family": method_family(m), "label": method_label(m), "source": "built-in"}
+        | ({"policy": shipped_policy(m)} if m in LEARNED else {})
         for m in METHODS
     ]
     rows += [
@@ -34,7 +46,8 @@ def cmd_methods(args: argparse.Namespace) -> int:
         return 0
     width = max(len(r["name"]) for r in rows)
     for r in rows:
-        print(f"{r['name']:<{width}}  {r['family']:<9} {r['label']}  [{r['source']}]")
+        policy = f"; {r['policy']}" if "policy" in r else ""
+        print(f"{r['name']:<{width}}  {r['family']:<9} {r['label']}  [{r['source']}{policy}]")
     print(f"\nmethods from outside the package: interface version {INTERFACE_VERSION}")
     print(f"  a class as package.module:Name, or installed in the group {ENTRY_POINT_GROUP}")
     print("  an ONNX file written by `d3dwa export` (docs/design.md#external-methods)")

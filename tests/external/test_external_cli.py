@@ -87,3 +87,18 @@ def test_sweep_runs_a_chooser_with_its_floors(capsys, one_second_world, tmp_path
     assert {r["method"] for r in rows} == {f"{HERE}:HeldRandom", "random", "random@10"}
     meta = json.loads((out / "meta.json").read_text())
     assert meta["settings"]["method_sources"][f"{HERE}:HeldRandom"].startswith(f"{HERE}:HeldRandom")
+
+
+def test_methods_says_which_learned_method_ships_a_policy(capsys, monkeypatch, tmp_path):
+    (tmp_path / "d3dwa" / "seed-0").mkdir(parents=True)
+    (tmp_path / "d3dwa" / "seed-0" / "meta.json").write_text("{}")
+    (tmp_path / "d3dwa" / "seed-1").mkdir()
+    (tmp_path / "d3dwa" / "seed-1" / "meta.json").write_text("{}")
+    monkeypatch.setattr("d3dwa_bullet.cli.methods.default_policy_path", lambda m: tmp_path / m)
+    code, out, _ = run(capsys, "methods", "--json")
+    rows = {r["name"]: r for r in json.loads(out)}
+    assert code == 0 and rows["d3dwa"]["policy"] == "shipped policy, 2 training seeds"
+    assert rows["d3dwa-barn"]["policy"].startswith("no shipped policy")
+    assert "policy" not in rows["dwa3"]  # a fixed method needs none
+    code, out, _ = run(capsys, "methods")
+    assert "D3DWA (BARN-trained)  [built-in; no shipped policy: train one" in out
