@@ -182,3 +182,23 @@ def test_a_world_file_is_reused_only_by_its_content(fresh, one_second_world, tmp
     assert run(capsys, *eval_argv(one_second_world, out, "--reuse", source))[0] == 0
     assert "reused" not in meta_settings(out)
     assert (out / "results.csv").read_bytes() == (fresh / "results.csv").read_bytes()
+
+
+def test_a_named_world_of_a_directory_from_before_the_digests(tmp_path, capsys):
+    # the yardstick's case: BARN worlds by name, a meta.json without world digests
+    argv = ["sweep", "--worlds", "BARN-0", "--layouts", "0", "--methods", "dwa3,random",
+            "--axes", "", "--profiles", "none,real", "--seeds", "2", "--time-limit", "1",
+            "--workers", "1"]  # fmt: skip
+    assert run(capsys, *argv, "--out", tmp_path / "a")[0] == 0
+    meta = json.loads((tmp_path / "a" / "meta.json").read_text())
+    del meta["settings"]["world_digests"]
+    (tmp_path / "a" / "meta.json").write_text(json.dumps(meta))
+    reuse = ["--reuse", tmp_path / "a", "--reuse-check", "2"]
+    assert run(capsys, *argv, "--out", tmp_path / "b", *reuse)[0] == 0
+    assert (tmp_path / "b" / "results.csv").read_bytes() == (
+        tmp_path / "a" / "results.csv"
+    ).read_bytes()
+    # dwa3: none once, real twice; random: none and real twice each
+    assert meta_settings(tmp_path / "b")["reused"][0]["episodes"] == 7 - 2
+    longer = [*argv[:-4], "--time-limit", "2", "--workers", "1", "--out", tmp_path / "c", *reuse]
+    assert "settings.time_limit 1.0" in refused(capsys, *longer)
