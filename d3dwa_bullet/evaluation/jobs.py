@@ -248,13 +248,14 @@ def _evaluate(
     plan = plan_reuse(reuse, todo, config, settings, fields) if reuse else None
     if record := reused_record(out, plan):  # kept over a plain resume
         settings[REUSED_KEY] = record
-    todo = [j for j in todo if plan is None or j.key not in plan.taken]
+    taken = plan.taken if plan else set()
+    todo = [j for j in todo if j.key not in taken]
     with open_backend(workers, ray_address, needed=bool(todo or plan and plan.checks)) as run:
         if plan:  # nothing is written to out before the check episodes agree with DIR
             plan.rerun(run, _worker, config, v_max, progress)
         (out / "logs").mkdir(parents=True, exist_ok=True)
         write_meta(out, config, settings, fields, keys)
-        if todo or plan and plan.taken:
+        if todo or taken:
             for name in DERIVED_PAGES:
                 (out / name).unlink(missing_ok=True)
         with (
