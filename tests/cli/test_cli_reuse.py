@@ -166,6 +166,9 @@ def test_a_sweep_reuses_its_profiles_and_reruns_its_axis_levels(one_second_world
         "checked": 1,
     }
     assert "2 episodes reused from" in printed and "(1 rerun to check: identical)" in printed
+    # a sweep's directory has other columns than an evaluation's
+    line = refused(capsys, *eval_argv(one_second_world, tmp_path / "e", "--reuse", tmp_path / "a"))
+    assert "its results.csv has columns" in line and "'axis'" in line
 
 
 def test_a_world_file_is_reused_only_by_its_content(fresh, one_second_world, tmp_path, capsys):
