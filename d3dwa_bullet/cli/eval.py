@@ -21,6 +21,7 @@ from d3dwa_bullet.cli.options import (
     ALLOW_EMPTY_HELP,
     add_backend_options,
     add_episode_options,
+    add_reuse_options,
     add_suite_options,
     default_methods,
     episode_config,
@@ -37,6 +38,8 @@ from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
+from d3dwa_bullet.evaluation.results import read_meta
+from d3dwa_bullet.evaluation.reuse import reuse_arg, reused_lines
 from d3dwa_bullet.external.resolve import method_origins, with_floors
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.limits import MAX_EPISODES, MAX_SEED_VALUE, MAX_SEEDS
@@ -75,6 +78,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_backend_options(p)
     add_episode_options(p)
+    add_reuse_options(p)
     p.set_defaults(func=cmd_eval, interrupted="finished episodes are kept in results.csv")
 
 
@@ -125,6 +129,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     check_distinct(jobs)  # before --out is made (evaluate checks again: it has other callers)
     notes = policy_config_notes(runs, config.recovery_name, policy)
     training = runs_barn_training(runs)  # read before any episode: a bad record is refused
+    reuse = reuse_arg(args.reuse, args.reuse_check, args.out)
     out = check_out_dir(args.out, subdirs=("logs", "figures"))
     names = [w.name for w in worlds]
     settings = {
@@ -143,7 +148,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     with locked_dir(out):  # one writer: the episodes, then the tables and figures
         rows = evaluate(
             jobs, out, workers=workers, config=config, progress=not args.json,
-            ray_address=args.ray, settings=settings,
+            ray_address=args.ray, settings=settings, reuse=reuse,
         )  # fmt: skip
         recovery = config.recovery_name
         table = eval_markdown(
@@ -160,4 +165,6 @@ def cmd_eval(args: argparse.Namespace) -> int:
         print(f"results: {out / 'results.csv'}\ntable:   {out / 'table.md'}")
         print(f"seeds:   {out / 'table_seeds.md'} (one row per training seed)")
         print(f"figures: {len(figures)} in {out / 'figures'}")
+        for line in reused_lines(read_meta(out).get("settings", {})):
+            print(line)
     return 0

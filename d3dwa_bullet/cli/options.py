@@ -354,3 +354,20 @@ def default_methods() -> list[str]:
     and fifteen more policies on every default run would take the main job past its 10 minutes."""
     learned = [m for m in LEARNED if default_policy_path(m).exists() and barn_twin(m) is None]
     return list(FIXED) + list(REFERENCE) + list(HELD_REFERENCE) + learned
+
+
+def add_reuse_options(p: argparse.ArgumentParser) -> None:
+    """--reuse DIR and --reuse-check K (eval, sweep): see :mod:`d3dwa_bullet.evaluation.reuse`."""
+    p.add_argument(
+        "--reuse",
+        metavar="DIR",
+        help="take the episodes another results directory provably ran the same (same config, "
+        "policies, worlds) instead of running them; docs/design.md#reuse",
+    )
+    p.add_argument(
+        "--reuse-check",
+        type=int,
+        default=3,
+        metavar="K",
+        help="reusable episodes rerun first and compared cell by cell with DIR's (default 3, >= 1)",
+    )

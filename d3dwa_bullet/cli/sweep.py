@@ -14,6 +14,7 @@ from d3dwa_bullet.cli.options import (
     ALLOW_EMPTY_HELP,
     add_backend_options,
     add_recovery_options,
+    add_reuse_options,
     add_suite_options,
     default_methods,
     episode_config,
@@ -28,6 +29,8 @@ from d3dwa_bullet.cli.options import (
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
 from d3dwa_bullet.evaluation.noise_axes import AXES
+from d3dwa_bullet.evaluation.results import read_meta
+from d3dwa_bullet.evaluation.reuse import reuse_arg, reused_lines
 from d3dwa_bullet.evaluation.sweep_settings import (
     PROFILES,
     SHIPPED_WORLDS,
@@ -77,6 +80,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--physics-hz", type=int, default=240, help="physics rate")
     p.add_argument("--control-hz", type=int, default=10, help="control (planning) rate")
     add_recovery_options(p)
+    add_reuse_options(p)
     p.set_defaults(func=cmd_sweep, interrupted="finished episodes are kept in results.csv")
 
 
@@ -109,17 +113,20 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     # two different worlds under one name are refused before --out is made
     check_distinct([Job(w, settings.methods[0], 0, "none") for w in worlds])
+    reuse = reuse_arg(args.reuse, args.reuse_check, args.out)
     out = check_out_dir(args.out, subdirs=("logs", "figures"))
     rows, complete = run_sweep(
         settings, out, workers=workers, ray_address=args.ray,
         config=config, progress=not args.json, policy=policy,
-        command=getattr(args, "command_line", ""),
+        command=getattr(args, "command_line", ""), reuse=reuse,
     )  # fmt: skip
     if args.json:
         print(json_text({"complete": complete, "episodes": len(rows),
                           "summary": summary_records(rows, settings)}))  # fmt: skip
     else:
         print(f"{len(rows)} episodes in {out / 'results.csv'}")
+        for line in reused_lines(read_meta(out).get("settings", {})):
+            print(line)
         if complete:
             print(f"tables:  {out / 'sweep.md'}\nfigures: {out / 'figures'}/sweep_*.png")
             print(f"page:    d3dwa report {out}")

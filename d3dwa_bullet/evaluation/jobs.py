@@ -48,6 +48,14 @@ from d3dwa_bullet.evaluation.results import (
     with_sources,
     write_meta,
 )
+from d3dwa_bullet.evaluation.reuse import (
+    DIGESTS_KEY,
+    REUSED_KEY,
+    Reuse,
+    plan_reuse,
+    reused_record,
+    world_digests,
+)
 from d3dwa_bullet.evaluation.same_run import check_same_run
 from d3dwa_bullet.evaluation.scores import add_scores, needs_scores, score_cells
 from d3dwa_bullet.io import file_stem
@@ -172,6 +180,7 @@ def evaluate(
     ray_address: str | None = None,
     fields: Sequence[str] = CSV_FIELDS,
     settings: dict[str, Any] | None = None,
+    reuse: Reuse | None = None,
 ) -> list[dict[str, Any]]:
     """Run every job not already in out/results.csv; returns all rows for these jobs.
 
@@ -187,10 +196,13 @@ def evaluate(
     whose rows these jobs would not resume or extend is refused before any episode runs
     (ResultsError from :func:`~d3dwa_bullet.evaluation.same_run.check_same_run`), and so is
     one another process is writing (BusyError): the directory is locked
-    (:mod:`d3dwa_bullet.dir_lock`) from before its first write to the return.
+    (:mod:`d3dwa_bullet.dir_lock`) from before its first write to the return. reuse: take
+    the episodes another directory provably ran (:mod:`~d3dwa_bullet.evaluation.reuse`).
     """
     with locked_dir(out):
-        return _evaluate(jobs, Path(out), workers, config, progress, ray_address, fields, settings)
+        return _evaluate(
+            jobs, Path(out), workers, config, progress, ray_address, fields, settings, reuse
+        )  # fmt: skip
 
 
 def _evaluate(
@@ -202,6 +214,7 @@ def _evaluate(
     ray_address: str | None,
     fields: Sequence[str],
     settings: dict[str, Any] | None,
+    reuse: Reuse | None,
 ) -> list[dict[str, Any]]:
     recovery = config.recovery_name
     fields = with_recovery(fields, recovery)
@@ -231,10 +244,18 @@ def _evaluate(
             {n: official_length(w) for n, w in worlds.items()},
         )  # fmt: skip
     todo = [j for j in jobs if j.key not in done]
-    with open_backend(workers, ray_address, needed=bool(todo)) as run:
+    settings[DIGESTS_KEY] = world_digests(j.world for j in unique.values())
+    plan = plan_reuse(reuse, todo, config, settings, fields) if reuse else None
+    if record := reused_record(out, plan):  # kept over a plain resume
+        settings[REUSED_KEY] = record
+    taken = plan.taken if plan else set()
+    todo = [j for j in todo if j.key not in taken]
+    with open_backend(workers, ray_address, needed=bool(todo or plan and plan.checks)) as run:
+        if plan:  # nothing is written to out before the check episodes agree with DIR
+            plan.rerun(run, _worker, config, v_max, progress)
         (out / "logs").mkdir(parents=True, exist_ok=True)
         write_meta(out, config, settings, fields, keys)
-        if todo:
+        if todo or taken:
             for name in DERIVED_PAGES:
                 (out / name).unlink(missing_ok=True)
         with (
@@ -248,6 +269,8 @@ def _evaluate(
                 unit="ep",
             ) as bar,
         ):
+            if plan:
+                plan.copy(out, append, v_max)
             for job, result in run(_worker, todo, config):
                 save_log(result, out / "logs" / job.log_name)
                 append(job.row(result, v_max))

@@ -37,6 +37,7 @@ from d3dwa_bullet.evaluation.results import (
     recovery_of,
     row_key,
 )
+from d3dwa_bullet.evaluation.reuse import reused_note
 from d3dwa_bullet.evaluation.score_tables import score_tables
 from d3dwa_bullet.evaluation.seed_tables import check_not_mixed, per_seed_table, seed_tables
 from d3dwa_bullet.evaluation.sweep import SweepSettings, read_sweep, sweep_figures, sweep_markdown
@@ -362,6 +363,7 @@ def write_report(
         f"\nd3dwa-bullet {meta.get('version', '?')}; rows from `results.csv`; "
         f"per-step logs in `logs/`.",
         f" Command: `{command}`.\n\n" if command else "\n\n",
+        reused_note(settings),
     ]
     if kind == "sweep":
         page.append(_sweep_body(out, meta, partial))

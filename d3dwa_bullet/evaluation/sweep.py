@@ -61,6 +61,7 @@ from d3dwa_bullet.evaluation.results import (
     read_results,
     row_key,
 )
+from d3dwa_bullet.evaluation.reuse import Reuse
 from d3dwa_bullet.evaluation.score_tables import score_condition_tables
 from d3dwa_bullet.evaluation.scores import UNSCORED_NOTE, is_scored
 from d3dwa_bullet.evaluation.seed_tables import condition_table
@@ -350,9 +351,10 @@ def run_sweep(
     policy: str | None = None,
     command: str = "",
     figures: bool = True,
+    reuse: Reuse | None = None,
 ) -> tuple[list[dict[str, Any]], bool]:
     """Run (or resume) a sweep into out; returns (rows, complete). When complete, writes
-    sweep.md and (with figures) figures/sweep_*.png."""
+    sweep.md and (with figures) figures/sweep_*.png. reuse: see ``jobs.evaluate``."""
     runs = method_runs(settings.methods, policy, settings.policy_seeds)
     for run in runs:
         make_controller(run.method, run.policy)  # fail fast on a missing policy
@@ -367,7 +369,7 @@ def run_sweep(
     training = runs_barn_training(runs)
     meta[SETTINGS_KEY] = settings_entry(training)
     with locked_dir(out):  # one writer: the episodes, then the page and figures
-        evaluate(jobs, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta)
+        evaluate(jobs, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta, reuse)
         keys = {j.key for j in jobs}
         rows = once_per_layout([r for r in read_sweep(out) if row_key(r) in keys])
         done, expected = completion(out, rows)
