@@ -14,7 +14,8 @@ noise profile from a file, an explicit noise config (a sweep's axis levels), a w
 a directory without digests.
 
 Drift (the code changed since DIR ran): ``check`` of the reusable episodes, evenly spaced
-over them in job order, are rerun first and every cell compared with DIR's; any difference
+over them in job order, and the first of every method and noise profile not among those
+(:func:`check_picks`), are rerun first and every cell compared with DIR's; any difference
 refuses the run naming the key and the first differing column, and nothing is written to
 OUT. Otherwise the fresh rows are kept and the others appended as the exact strings DIR wrote,
 with DIR's logs when it has them (committed result folders do not: trajectory figures then
@@ -262,12 +263,27 @@ def plan_reuse(reuse: Reuse, todo: Sequence[Job], config: Any, settings: Mapping
                 )
         cells[job.key] = row
         reusable.append(job)
-    picked = set(
-        np.linspace(0, len(reusable) - 1, min(reuse.check, len(reusable))).round().astype(int)
-    )
+    picked = check_picks(reusable, reuse.check)
     checks = [j for i, j in enumerate(reusable) if i in picked]
     copies = [j for i, j in enumerate(reusable) if i not in picked]
     return ReusePlan(reuse.dir, checks, copies, cells, list(fields))
+
+
+def check_picks(reusable: Sequence[Job], k: int) -> set[int]:
+    """Indices of the episodes rerun against DIR, by a rule fixed before any runs (never by
+    an outcome): ``k`` evenly spaced in job order, then the first episode of each method and
+    of each noise profile not yet among them, so a drift that touches one method or one
+    profile only (its policy, the profile's file) is met by at least one check."""
+    if not reusable:
+        return set()
+    picked = set(np.linspace(0, len(reusable) - 1, min(k, len(reusable))).round().astype(int))
+    for attribute in ("method", "noise"):
+        covered = {getattr(reusable[i], attribute) for i in picked}
+        for i, job in enumerate(reusable):
+            if getattr(job, attribute) not in covered:
+                covered.add(getattr(job, attribute))
+                picked.add(i)
+    return {int(i) for i in picked}
 
 
 def reused_record(out: Path, plan: ReusePlan | None) -> list[dict[str, Any]]:
@@ -291,7 +307,8 @@ def reused_lines(settings: Mapping[str, Any]) -> list[str]:
     """ "N episodes reused from DIR (K rerun to check: identical)" per source a run's
     settings record."""
     return [
-        f"{e['episodes']} episodes reused from {e['from']} ({e['checked']} rerun to check: identical)"
+        f"{e['episodes']} episode{'' if e['episodes'] == 1 else 's'} reused from {e['from']} "
+        f"({e['checked']} rerun to check: identical)"
         for e in settings.get(REUSED_KEY, [])
     ]
 

@@ -68,7 +68,8 @@ def test_resume_after_reuse_keeps_the_record(fresh, one_second_world, tmp_path, 
     )
     assert len(list((out / "logs").iterdir())) == 6  # DIR's logs are copied
     record = meta_settings(out)["reused"]
-    assert record == [{"from": str(source.resolve()), "episodes": 5, "checked": 1}]
+    # one check asked for, one more for the method it did not meet
+    assert record == [{"from": str(source.resolve()), "episodes": 4, "checked": 2}]
     # a plain resume, then an extension to a fourth seed: the rows stay, the record too
     assert run(capsys, *eval_argv(one_second_world, out))[0] == 0
     extended = [*eval_argv(one_second_world, out)]
@@ -76,7 +77,7 @@ def test_resume_after_reuse_keeps_the_record(fresh, one_second_world, tmp_path, 
     code, printed, _ = run(capsys, *extended)
     assert code == 0
     assert meta_settings(out)["reused"] == record
-    assert "5 episodes reused from" in printed
+    assert "4 episodes reused from" in printed
     lines = (out / "results.csv").read_text().splitlines()
     assert len(lines) == 1 + 8  # in job order: each method's fourth seed after its third
     assert set((fresh / "results.csv").read_text().splitlines()) < set(lines)
@@ -159,13 +160,14 @@ def test_a_sweep_reuses_its_profiles_and_reruns_its_axis_levels(one_second_world
     assert (tmp_path / "b" / "results.csv").read_bytes() == (
         tmp_path / "a" / "results.csv"
     ).read_bytes()
-    # none (1 episode: it repeats at every seed) and real (2) reusable; slip=0.4 (explicit noise) rerun
+    # none (1 episode: it repeats at every seed) and real (2) reusable; slip=0.4 (explicit noise)
+    # rerun; checked: the one asked for (none) and real's first
     assert meta_settings(tmp_path / "b")["reused"][0] | {"from": ""} == {
         "from": "",
-        "episodes": 2,
-        "checked": 1,
+        "episodes": 1,
+        "checked": 2,
     }
-    assert "2 episodes reused from" in printed and "(1 rerun to check: identical)" in printed
+    assert "1 episode reused from" in printed and "(2 rerun to check: identical)" in printed
     # a sweep's directory has other columns than an evaluation's
     line = refused(capsys, *eval_argv(one_second_world, tmp_path / "e", "--reuse", tmp_path / "a"))
     assert "its results.csv has columns" in line and "'axis'" in line

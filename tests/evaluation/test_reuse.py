@@ -41,9 +41,10 @@ def test_the_bar_starts_at_the_reused_episodes(tmp_path, bars):
     (source / "results.csv").write_bytes(b"".join(lines[:4]))  # header and three episodes
     bars.clear()
     evaluate(profile_jobs(), tmp_path / "out", workers=1, reuse=Reuse(source, 1))
-    # the check bar (one episode), then the episodes' from the two taken and the one checked
-    assert [(b.initial, b.n, b.total) for b in bars] == [(0, 1, 1), (3, 4, 4)]
-    assert reused(tmp_path / "out")[0]["episodes"] == 2
+    # the check bar (two episodes: the one asked for, dwa3's, and random's first), then the
+    # episodes' bar from the one taken and the two checked
+    assert [(b.initial, b.n, b.total) for b in bars] == [(0, 2, 2), (3, 4, 4)]
+    assert reused(tmp_path / "out")[0]["episodes"] == 1
 
 
 def test_explicit_noise_and_outside_methods_are_run_not_reused(tmp_path):
@@ -65,3 +66,14 @@ def test_the_checks_are_evenly_spaced_in_job_order(tmp_path):
     )  # fmt: skip
     assert [j.seed for j in plan.checks] == [0, 3, 6]
     assert [j.seed for j in plan.copies] == [1, 2, 4, 5]
+
+
+def test_every_method_and_profile_gets_a_check_beside_the_evenly_spaced_ones():
+    jobs = [Job(TINY, m, s, n) for m in ("dwa3", "random") for n in ("none", "real", "harsh")
+            for s in range(4)]  # fmt: skip
+    picks = reuse_module.check_picks(jobs, 1)  # one evenly spaced: the first, dwa3 under none
+    assert {(jobs[i].method, jobs[i].noise) for i in picks} >= {("dwa3", "none")}
+    assert {jobs[i].method for i in picks} == {"dwa3", "random"}
+    assert {jobs[i].noise for i in picks} == {"none", "real", "harsh"}
+    assert sorted(picks) == [0, 4, 8, 12]  # dwa3 none, dwa3 real, dwa3 harsh, random none
+    assert reuse_module.check_picks([], 3) == set()
