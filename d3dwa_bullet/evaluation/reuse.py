@@ -45,7 +45,7 @@ from d3dwa_bullet.evaluation.results import (
     read_meta,
     save_log,
 )
-from d3dwa_bullet.evaluation.same_run import differences
+from d3dwa_bullet.evaluation.same_run import config_record, differences
 from d3dwa_bullet.io import atomic_write_bytes, read_text
 from d3dwa_bullet.method_specs import method_family
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
@@ -209,8 +209,7 @@ def _check_settings(source: Path, meta: Mapping[str, Any], config: Any,
             f"{where}: its results.csv has columns {csv_header(source)} (format "
             f"{meta.get('format')!r}), this command writes {list(fields)} (format {RESULTS_FORMAT})"
         )
-    here = json.loads(json.dumps(asdict(config), default=str))
-    diffs = differences(meta.get("config"), here)
+    diffs = differences(meta.get("config"), config_record(config))
     if diffs:
         name, old, new = diffs[0]
         raise ResultsError(

@@ -20,6 +20,12 @@ from d3dwa_bullet.evaluation.results import EPISODE_SETTINGS, read_meta, read_re
 from d3dwa_bullet.loading import parse_json
 
 
+def config_record(config: Any) -> Any:
+    """An episode config as meta.json holds it (JSON types: a tuple reads back as a list), to
+    compare with a directory's ``config``."""
+    return parse_json(json.dumps(asdict(config), default=str), ResultsError, "episode config")
+
+
 def check_same_run(
     out: Path, keys: Sequence[Key], config: Any, settings: Mapping[str, Any]
 ) -> None:
@@ -44,7 +50,7 @@ def check_same_run(
             f"({what}); list them too to extend that evaluation, or use another --out directory"
         )
     meta = read_meta(out)
-    here = parse_json(json.dumps(asdict(config), default=str), ResultsError, "episode config")
+    here = config_record(config)
     diffs = "; ".join(
         f"{name} {old!r} there, {new!r} here"
         for name, old, new in differences(meta.get("config", here), here)
