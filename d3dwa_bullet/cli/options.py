@@ -369,5 +369,6 @@ def add_reuse_options(p: argparse.ArgumentParser) -> None:
         type=int,
         default=3,
         metavar="K",
-        help="reusable episodes rerun first and compared cell by cell with DIR's (default 3, >= 1)",
+        help="reusable episodes rerun first, evenly spaced, plus the first of each method and "
+        "profile, and compared cell by cell with DIR's (default 3, >= 1)",
     )
