@@ -119,7 +119,9 @@ class ReusePlan:
               v_max: float, progress: bool) -> None:  # fmt: skip
         """Run the check episodes (``run(worker, jobs, config)``, a backend) and compare every
         cell with DIR's; ResultsError naming the key and the first differing column."""
-        bar = tqdm(total=len(self.checks), disable=not progress, desc="reuse check", unit="ep")
+        bar = tqdm(
+            total=len(self.checks), disable=not progress, desc="reuse check", unit="ep", leave=False
+        )  # a refusal is then the only line left
         with bar:
             for job, result in run(worker, self.checks, config):
                 here = _cells(job.row(result, v_max), self.fields)
