@@ -95,8 +95,14 @@ def world_digest(world: World) -> str:
 
 
 def world_digests(worlds: Iterable[World]) -> dict[str, str]:
-    """{world key: content digest} of a run's worlds (the settings entry DIGESTS_KEY)."""
-    return {w.name: world_digest(w) for w in worlds}
+    """{world key: content digest} of a run's worlds (the settings entry DIGESTS_KEY). A name
+    is digested once, however many jobs list its world (a key names one content:
+    ``jobs.check_distinct``): a BARN world takes ~3 ms, and a sweep lists it in dozens of jobs."""
+    digests: dict[str, str] = {}
+    for world in worlds:
+        if world.name not in digests:
+            digests[world.name] = world_digest(world)
+    return digests
 
 
 @dataclass
