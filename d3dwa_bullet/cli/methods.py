@@ -9,6 +9,7 @@ from d3dwa_bullet.cli.output import json_text
 from d3dwa_bullet.controllers import default_policy_path
 from d3dwa_bullet.external.protocol import ENTRY_POINT_GROUP, INTERFACE_VERSION
 from d3dwa_bullet.method_specs import LEARNED, METHODS, method_family, method_label
+from d3dwa_bullet.seed_dirs import seed_dirs
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -20,8 +21,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def shipped_policy(method: str) -> str:
     """What ships for a learned method: its policy's training seeds, or that none does yet
     (a policy trained elsewhere is still taken with --policy)."""
-    seeds = len(list(default_policy_path(method).glob("seed-*/meta.json")))
-    single = (default_policy_path(method) / "meta.json").is_file()
+    folder = default_policy_path(method)
+    seeds = sum((path / "meta.json").is_file() for path in seed_dirs(folder).values())
+    single = (folder / "meta.json").is_file()
     if seeds or single:
         return f"shipped policy, {seeds or 1} training seed{'s' if seeds > 1 else ''}"
     return "no shipped policy: train one, or pass --policy DIR"
