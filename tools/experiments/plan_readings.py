@@ -29,12 +29,13 @@ from pathlib import Path
 from statistics import fmean
 from typing import Any
 
+from d3dwa_bullet.cli.compare import job_rows_of
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.margins import MARGIN_OPTIONS, MARGINS, check_margin
 from d3dwa_bullet.evaluation.page_width import fit_prose
 from d3dwa_bullet.evaluation.paired import Unit, metric_value
 from d3dwa_bullet.evaluation.readings import readings_by_group, readings_table
-from d3dwa_bullet.evaluation.results import check_results_dir, completion, job_rows
+from d3dwa_bullet.evaluation.results import completion
 from d3dwa_bullet.method_specs import FIXED
 from tools.entry import ToolParser, tool_main
 
@@ -92,10 +93,7 @@ PLANS = {
 def finished_rows(out: Path) -> list[dict[str, Any]]:
     """The rows of a finished results directory; ResultsError naming the directory when it is
     not one, or when episodes of its job list are still missing."""
-    if not (out / "results.csv").is_file():
-        raise ResultsError(f"{out}: not a results directory (no results.csv)")
-    check_results_dir(out)
-    rows = job_rows(out)
+    rows = job_rows_of(out)
     done, expected = completion(out, rows)
     if done != expected:
         raise ResultsError(
