@@ -11,8 +11,8 @@ The families: a fixed DWA (``dwa3``), the uniform chooser held for its decision 
 (``random@10``) and a learned policy (``d3dwa``, training seed 0). Every world runs without noise
 (a sweep's baseline) and under the ``real`` profile, one evaluation seed, as the yardstick sweep
 does. R-style: ``--layouts`` fresh layouts per style (generator seeds 2^31 ..., the sweep's own).
-BARN: the ``challenge`` worlds of ``--barn-ids``. A cell's rate counts its own episodes only; ``steps_per_s`` (control steps of 0.1 s
-simulated a wall second) is printed beside it, since an episode's length depends on how it ends.
+BARN: the ``challenge`` worlds of ``--barn-ids``. A cell's rate counts its own episodes only;
+``steps_per_s`` (control steps of 0.1 s simulated a wall second) is printed beside it, since an episode's length depends on how it ends.
 """
 
 from __future__ import annotations
@@ -50,7 +50,8 @@ def cell_argv(
     )
     argv = [sys.executable, "-m", "d3dwa_bullet.cli", "sweep", *worlds, "--axes", "",
             "--profiles", "real", "--seeds", "1", "--recovery", recovery, "--methods", method,
-            *(["--policy-seeds", "0"] if method == FAMILIES["learned"] else []), "--workers", str(workers), "--out", str(out)]  # fmt: skip
+            *(["--policy-seeds", "0"] if method == FAMILIES["learned"] else []),
+            "--workers", str(workers), "--out", str(out)]  # fmt: skip
     if time_limit is not None:
         argv += ["--time-limit", str(time_limit)]
     return argv
