@@ -12,7 +12,8 @@ The families: a fixed DWA (``dwa3``), the uniform chooser held for its decision 
 (a sweep's baseline) and under the ``real`` profile, one evaluation seed, as the yardstick sweep
 does. R-style: ``--layouts`` fresh layouts per style (generator seeds 2^31 ..., the sweep's own).
 BARN: the ``challenge`` worlds of ``--barn-ids``. A cell's rate counts its own episodes only;
-``steps_per_s`` (control steps of 0.1 s simulated a wall second) is printed beside it, since an episode's length depends on how it ends.
+``steps_per_s`` (control steps of 0.1 s simulated a wall second) is printed beside it, since an
+episode's length depends on how it ends.
 """
 
 from __future__ import annotations
