@@ -12,7 +12,10 @@ from tools.bench import bench_throughput
 
 def test_a_cell_counts_the_rows_its_command_wrote(tmp_path: Path) -> None:
     rows = "world,outcome,steps\nR1,goal,300\nR2,timeout,600\nR3,collision,100\n"
-    write = f"import pathlib; pathlib.Path({str(tmp_path)!r}, 'results.csv').write_text({rows!r})"
+    write = (  # half a second: the wall time, rounded to 0.01 s, is then exact to 2 %
+        f"import pathlib, time; time.sleep(0.5); "
+        f"pathlib.Path({str(tmp_path)!r}, 'results.csv').write_text({rows!r})"
+    )
     cell = bench_throughput.measure([sys.executable, "-c", write], tmp_path)
     assert cell["episodes"] == 3 and cell["goals"] == 1
     assert cell["episodes_per_min"] == pytest.approx(180.0 / cell["wall_s"], rel=0.1)
