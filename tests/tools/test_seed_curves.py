@@ -34,6 +34,15 @@ def test_a_keep_final_seed_marks_its_final_checkpoint(tmp_path):
     assert seed_curves(run)[0][2] == 40  # not the best validation's step 20
 
 
+def test_a_run_deciding_every_10_steps_is_read_in_control_steps(tmp_path):
+    run = run_dir(tmp_path)
+    config = {"method": "d3dwa-barn", "decision_steps": 10}
+    (run / "seed-2" / "config.json").write_text(json.dumps(config))
+    steps, values, kept = seed_curves(run)[2]
+    assert steps.tolist() == [200, 400] and values.tolist() == [0.22, 0.42] and kept == 400
+    assert seed_curves(run)[0][0].tolist() == [20, 40]  # no decision_steps: one step a decision
+
+
 def test_figure_and_a_run_without_evaluations(tmp_path, capsys):
     run = run_dir(tmp_path)
     assert main([str(run), "--out", str(tmp_path / "c.png")]) == 0

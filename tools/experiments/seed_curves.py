@@ -28,7 +28,12 @@ from tools.entry import ToolParser, tool_main
 
 
 def seed_curves(run: Path) -> dict[int, tuple[np.ndarray, np.ndarray, int | None]]:
-    """Per seed of a run: (steps, validation success, step kept or None)."""
+    """Per seed of a run: (control steps, validation success, control step kept or None).
+
+    A run that decides every ``decision_steps`` control steps counts its steps in decisions;
+    they are scaled to control steps (0.1 s), the unit of the training budget, so runs of
+    either kind share one axis.
+    """
     curves = {}
     for k, path in seed_dirs(run).items():
         rows = read_metrics(path, "eval/success_rate")
@@ -36,10 +41,15 @@ def seed_curves(run: Path) -> dict[int, tuple[np.ndarray, np.ndarray, int | None
             continue
         summary = path / "summary.json"
         found = load_json(summary, ResultsError) if summary.is_file() else {}
+        config = path / "config.json"
+        per = (
+            int(load_json(config, ResultsError).get("decision_steps", 1)) if config.is_file() else 1
+        )
         _, kept = kept_evaluation(path, found)
-        steps = np.array([r["step"] for r in rows])
+        steps = np.array([r["step"] for r in rows]) * per
         values = np.array([r["value"] for r in rows])
-        curves[k] = (steps, values, kept.get("step"))
+        kept_step = kept.get("step")
+        curves[k] = (steps, values, None if kept_step is None else int(kept_step) * per)
     return curves
 
 
@@ -66,7 +76,7 @@ def figure(runs: Sequence[Path], out: Path) -> Path:
             mean = np.mean([v for _, v, _ in curves.values()], axis=0)
             ax.plot(steps / 1000, mean, lw=2.2, color="k", label="mean")
         ax.set_title(f"{method_label(method)} ({len(curves)} seeds)", fontsize=9)
-        ax.set_xlabel("env steps [k]")
+        ax.set_xlabel("control steps (0.1 s) [k]")
         ax.set_ylim(-0.03, 1.03)
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("greedy validation success")
