@@ -25,6 +25,7 @@ from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.method_specs import method_label
 from d3dwa_bullet.seed_dirs import kept_evaluation, seed_dirs
 from tools.entry import ToolParser, tool_main
+from tools.experiments.shipped_seeds import seed_decision_steps
 
 
 def seed_curves(run: Path) -> dict[int, tuple[np.ndarray, np.ndarray, int | None]]:
@@ -41,10 +42,7 @@ def seed_curves(run: Path) -> dict[int, tuple[np.ndarray, np.ndarray, int | None
             continue
         summary = path / "summary.json"
         found = load_json(summary, ResultsError) if summary.is_file() else {}
-        config = path / "config.json"
-        per = (
-            int(load_json(config, ResultsError).get("decision_steps", 1)) if config.is_file() else 1
-        )
+        per = seed_decision_steps(path)
         _, kept = kept_evaluation(path, found)
         steps = np.array([r["step"] for r in rows]) * per
         values = np.array([r["value"] for r in rows])

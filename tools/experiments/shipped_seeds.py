@@ -47,7 +47,7 @@ def seed_records(folder: Path) -> list[dict[str, Any]]:
         for k, path in seeds.items():
             summary = _summary(path / "summary.json")
             keep, kept = kept_evaluation(path, summary)
-            per = _decision_steps(path)
+            per = seed_decision_steps(path)
             step = kept.get("step")
             rows.append({
                 "seed": k, "env_steps": summary["env_steps"] * per, "keep": keep,
@@ -74,7 +74,7 @@ def _summary(path: Path) -> dict[str, Any]:
     return summary
 
 
-def _decision_steps(folder: Path) -> int:
+def seed_decision_steps(folder: Path) -> int:
     """Control steps per decision of one seed folder: the period its meta.json records,
     checked against its config.json (``policy_terms.folder_terms``), or its config.json's
     alone without a meta.json; 1 without either. CheckpointError (one line) for a bad one."""
