@@ -66,6 +66,32 @@ def test_a_cell_against_best_fixed_reads_against_each_profiles_best(tmp_path, ca
     assert all(len(line) <= 120 for line in page.splitlines())
 
 
+def test_brief_prints_each_cells_readings_per_profile_on_one_line(tmp_path, capsys) -> None:
+    out = directory(tmp_path / "r")
+    argv = [str(out), "--pair", "d3dwa,best-fixed", "--pair", "d3dwa,dwa1"]
+    assert plan_readings.main([*argv, "--json"]) == 0
+    records = json.loads(capsys.readouterr().out)
+    assert plan_readings.main([*argv, "--brief"]) == 0
+    page = capsys.readouterr().out
+    score, success = page.split("\n\nSuccess (margin ±3 points)")
+    assert score.startswith("Robot score (margin ±0.03)")
+    short = {"A better": "**A**", "B better": "**B**", "equivalent": "eq.", "inconclusive": "inc."}
+    for part, metric in [(score, "score"), (success, "success")]:
+        lines = [line for line in part.splitlines() if line.startswith("| ")]
+        assert lines[0] == "| A vs B | none | harsh |" and len(lines) == 3
+        rows = {line.split(" | ")[0][2:]: line[:-2].split(" | ")[1:] for line in lines[1:]}
+        for r in records:
+            cell = "`d3dwa` vs " + ("best fixed" if "best_fixed_score" in r else f"`{r['b']}`")
+            reading = r["readings"][metric]
+            diff = reading["difference"] * (100 if metric == "success" else 1)
+            value = f"{diff:+.1f}" if metric == "success" else f"{diff:+.3f}"
+            column = 0 if r["profile"] == "none" else 1
+            assert rows[cell][column] == f"{short[reading['reading']]} {value}", (cell, metric)
+    # d3dwa leads dwa1 by 0-0.02 without noise and by 0.30-0.33 under harsh on every layout
+    assert "| `d3dwa` vs `dwa1` | **A** +0.010 | **A** +0.315 |" in score
+    assert plan_readings.main([*argv, "--brief", "--json"]) == 2
+
+
 def test_an_unfinished_directory_and_bad_cells_are_refused(tmp_path, capsys) -> None:
     out = directory(tmp_path / "r", missing=1)
     assert plan_readings.main([str(out), "--pair", "d3dwa,dwa1"]) == 2

@@ -18,6 +18,10 @@ directory, as the BARN-trained plan defines it. The table names which one it was
 
     python -m tools.experiments.plan_readings runs/barn-trained/challenge --plan barn-trained
     python -m tools.experiments.plan_readings runs/yardstick-barn --plan yardstick --json
+
+``--brief`` prints two tables instead, the robot score's and success's, one line per cell and a
+column per profile: the reading and A - B (success in points; **A**: A better, **B**: B better,
+"eq.": equivalent within the margin, "inc.": inconclusive), as docs/results.md quotes them.
 """
 
 from __future__ import annotations
@@ -31,8 +35,8 @@ from typing import Any
 
 from d3dwa_bullet.cli.compare import job_rows_of
 from d3dwa_bullet.errors import ResultsError
-from d3dwa_bullet.evaluation.margins import MARGIN_OPTIONS, MARGINS, check_margin
-from d3dwa_bullet.evaluation.page_width import fit_prose
+from d3dwa_bullet.evaluation.margins import MARGIN_OPTIONS, MARGINS, check_margin, margin_text
+from d3dwa_bullet.evaluation.page_width import fit_prose, split_columns
 from d3dwa_bullet.evaluation.paired import Unit, metric_value
 from d3dwa_bullet.evaluation.readings import readings_by_group, readings_table
 from d3dwa_bullet.evaluation.results import completion
@@ -170,6 +174,43 @@ def markdown(records: Sequence[Mapping[str, Any]], plan: str) -> str:
     return fit_prose("\n".join(parts))
 
 
+_SHORT = {"A better": "**A**", "B better": "**B**", "equivalent": "eq.", "inconclusive": "inc."}
+"""A reading as a brief table prints it."""
+_BRIEF = {"score": "Robot score", "success": "Success"}
+"""The metrics of a brief table, in its order, with their titles."""
+
+
+def _brief_reading(metric: str, record: Mapping[str, Any] | None) -> str:
+    """One metric's reading and A - B (success in points), or '--' without one."""
+    if record is None or record.get("reading") is None:
+        return "--"
+    diff = record["difference"]
+    if diff is None:
+        return _SHORT[record["reading"]]
+    return _SHORT[record["reading"]] + (
+        f" {100 * diff:+.1f}" if metric == "success" else f" {diff:+.3f}"
+    )
+
+
+def brief(records: Sequence[Mapping[str, Any]], margins: Mapping[str, float]) -> str:
+    """For the robot score, then success: a Markdown table with one line per cell (A vs B;
+    "best fixed" where B stands for it) and a column per profile, each the reading and A - B."""
+    profiles = list(dict.fromkeys(r["profile"] for r in records))
+    cells: dict[str, dict[str, Mapping[str, Any]]] = {}
+    for r in records:
+        b = "best fixed" if "best_fixed_score" in r else f"`{r['b']}`"
+        cells.setdefault(f"`{r['a']}` vs {b}", {})[r["profile"]] = r["readings"]
+    parts = []
+    for metric, title in _BRIEF.items():
+        unit = " in points" if metric == "success" else ""
+        body = [[cell, *(_brief_reading(metric, per.get(p, {}).get(metric)) for p in profiles)]
+                for cell, per in cells.items()]  # fmt: skip
+        table = split_columns(["A vs B", *profiles], ["---"] * (1 + len(profiles)), body)
+        within = margin_text(metric, margins[metric])
+        parts.append(f"{title} (margin {within}), the reading and A - B{unit}:\n\n{table}")
+    return "\n".join(parts)
+
+
 @tool_main
 def main(argv: Sequence[str] | None = None) -> int:
     parser = ToolParser(prog="plan_readings", description=__doc__.split("\n")[0])
@@ -182,7 +223,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     for metric, option in MARGIN_OPTIONS.items():
         parser.add_argument(option, type=float, metavar="M",
                             help=f"{metric}'s margin for --pair cells (a plan's are its own)")  # fmt: skip
-    parser.add_argument("--json", action="store_true")
+    out = parser.add_mutually_exclusive_group()
+    out.add_argument("--json", action="store_true")
+    out.add_argument("--brief", action="store_true", help="one line per cell (see above)")
     args = parser.parse_args(argv)
     if bool(args.plan) == bool(args.pair):
         parser.error("give either --plan or --pair")
@@ -201,7 +244,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             pairs.append((names[0], names[1]))
         margins = {m: MARGINS[m] if v is None else check_margin(v, m) for m, v in given.items()}
     records = read_cells(finished_rows(args.results), pairs, margins)
-    print(json.dumps(records, indent=1) if args.json else markdown(records, name), end="")
+    if args.json:
+        print(json.dumps(records, indent=1))
+    else:
+        print(brief(records, margins) if args.brief else markdown(records, name), end="")
     return 0
 
 
