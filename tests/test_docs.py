@@ -171,6 +171,43 @@ def over_wide_lines(path: Path, readme: bool = False) -> list[str]:
     return bad
 
 
+_RULE = re.compile(r"^\|(\s*:?-+:?\s*\|)+$")
+
+
+def tables_without_rule(path: Path) -> list[str]:
+    """The Markdown tables of a page, outside code, whose header line is not followed by a
+    delimiter row (``|---|---:|``) of as many columns: without one, a table renders as text."""
+    lines = path.read_text(encoding="utf-8").splitlines()
+    bad, fenced = [], False
+    for n, line in enumerate(lines, 1):
+        if _FENCE.match(line):
+            fenced = not fenced
+        row = line.startswith("|") and line.rstrip().endswith("|")
+        starts = row and not (n > 1 and lines[n - 2].startswith("|"))
+        if fenced or not starts:
+            continue
+        rule = lines[n] if n < len(lines) else ""
+        cells = _INLINE_CODE.sub("", line).count("|")
+        if not _RULE.match(rule.strip()) or rule.count("|") != cells:
+            bad.append(f"table at line {n}: no delimiter row under its header")
+    return bad
+
+
+@pytest.mark.parametrize("path", DOCUMENTS, ids=lambda p: str(p.relative_to(ROOT)))
+def test_tables_have_a_delimiter_row(path: Path) -> None:
+    assert tables_without_rule(path) == []
+
+
+def test_a_table_without_a_delimiter_row_is_found(tmp_path: Path) -> None:
+    page = tmp_path / "page.md"
+    page.write_text("| a | b |\n|---|---:|\n| 1 | 2 |\n\ntext\n| a | b |\n| 1 | 2 |\n"
+                    "\n| a | b |\n|---|\n```\n| code |\n```\n")  # fmt: skip
+    assert tables_without_rule(page) == [
+        "table at line 6: no delimiter row under its header",
+        "table at line 9: no delimiter row under its header",
+    ]
+
+
 @pytest.mark.parametrize("path", DOCUMENTS, ids=lambda p: str(p.relative_to(ROOT)))
 def test_relative_links_resolve(path: Path) -> None:
     assert path.exists(), f"{path} is missing"
