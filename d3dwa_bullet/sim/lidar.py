@@ -21,7 +21,8 @@ class Lidar:
     lists are built once. The lidar sits above the body, so no beam can hit the robot.
     ``numThreads=0`` lets Bullet spread the beams over the cores; each beam's result does not
     depend on the threading. One thread was tried and measured (docs/benchmarks.md): 21 %
-    slower for one simulator on an idle machine and no faster for training's two envs.
+    slower for one simulator on an idle machine, no faster for training's two envs or a sweep's two
+    workers.
     """
 
     def __init__(self, client: int, robot: int, link: int, params: LidarParams = LidarParams()):
