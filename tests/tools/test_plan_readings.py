@@ -74,7 +74,7 @@ def test_brief_prints_each_cells_readings_per_profile_on_one_line(tmp_path, caps
     assert plan_readings.main([*argv, "--brief"]) == 0
     page = capsys.readouterr().out
     score, success = page.split("\n\nSuccess (margin ±3 points)")
-    assert score.startswith("Robot score (margin ±0.03)")
+    assert score.startswith("Robot score (margin ±0.03)") and "inc.: inconclusive" in success
     short = {"A better": "**A**", "B better": "**B**", "equivalent": "eq.", "inconclusive": "inc."}
     for part, metric in [(score, "score"), (success, "success")]:
         lines = [line for line in part.splitlines() if line.startswith("| ")]

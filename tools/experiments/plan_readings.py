@@ -208,7 +208,9 @@ def brief(records: Sequence[Mapping[str, Any]], margins: Mapping[str, float]) ->
         table = split_columns(["A vs B", *profiles], ["---"] * (1 + len(profiles)), body)
         within = margin_text(metric, margins[metric])
         parts.append(f"{title} (margin {within}), the reading and A - B{unit}:\n\n{table}")
-    return "\n".join(parts)
+    legend = ("**A**: A better, **B**: B better, eq.: equivalent within the margin, inc.: "
+              "inconclusive; the intervals, p-values and layouts that would decide: without --brief.")  # fmt: skip
+    return "\n".join(parts) + f"\n{fit_prose(legend)}\n"
 
 
 @tool_main
