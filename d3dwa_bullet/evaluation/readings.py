@@ -213,7 +213,7 @@ def reading_text(record: Mapping[str, Any]) -> str:
     return f"inconclusive (about {record['needed']} layouts would decide)"
 
 
-def _value(metric: str, x: float | None, signed: bool = False) -> str:
+def metric_text(metric: str, x: float | None, signed: bool = False) -> str:
     """A metric's value as printed: success in points (%), a score to three decimals."""
     if x is None:
         return "--"
@@ -244,15 +244,15 @@ def readings_table(
             m = f"{metric} ({margin_text(metric, r['margin'])})"
             diff, p, tost = "--", "--", "--"
             if r.get("low") is not None:
-                diff = (f"{_value(metric, r['difference'], True)} "
-                        f"[{_value(metric, r['low'], True)}, {_value(metric, r['high'], True)}]")  # fmt: skip
+                low, high = (metric_text(metric, r[k], True) for k in ("low", "high"))
+                diff = f"{metric_text(metric, r['difference'], True)} [{low}, {high}]"
                 a_side = r["p_a_better"] <= r["p_b_better"]
                 p = f"{min(r['p_a_better'], r['p_b_better']):.3g} ({'A > B' if a_side else 'B > A'})"
                 tost = f"{r['tost_p']:.3g}"
             elif r.get("difference") is not None:
-                diff = _value(metric, r["difference"], True)
-            body.append([group, m, str(r["layouts"]), _value(metric, r.get("mean_a")),
-                         _value(metric, r.get("mean_b")), diff, p, tost, reading_text(r)])  # fmt: skip
+                diff = metric_text(metric, r["difference"], True)
+            means = [metric_text(metric, r.get(k)) for k in ("mean_a", "mean_b")]
+            body.append([group, m, str(r["layouts"]), *means, diff, p, tost, reading_text(r)])
             if trained_on:
                 body[-1].insert(2, trained_on.get(group, ""))
     return split_columns(header, align, body, keys=2)

@@ -23,6 +23,7 @@ from typing import Any
 from d3dwa_bullet.cli.compare import job_rows_of
 from d3dwa_bullet.evaluation.page_width import fit_prose, split_columns
 from d3dwa_bullet.evaluation.paired import metric_value
+from d3dwa_bullet.evaluation.readings import metric_text
 from d3dwa_bullet.evaluation.results import completion
 from tools.entry import ToolParser, tool_main
 
@@ -54,11 +55,13 @@ def method_means(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, dict[
 def _cell(cell: Mapping[str, Any] | None) -> str:
     if cell is None:
         return "--"
-    success = f"{100 * cell['success']:.1f}"
+    success = metric_text("success", cell["success"])
     if cell["score"] is None:
         return success
-    barn = "" if cell["score_barn"] is None else f" ({cell['score_barn']:.3f})"
-    return f"{success}, {cell['score']:.3f}{barn}"
+    barn = (
+        "" if cell["score_barn"] is None else f" ({metric_text('score_barn', cell['score_barn'])})"
+    )
+    return f"{success}, {metric_text('score', cell['score'])}{barn}"
 
 
 def markdown(means: Mapping[str, Mapping[str, Mapping[str, Any]]], done: int, listed: int) -> str:
@@ -70,9 +73,9 @@ def markdown(means: Mapping[str, Mapping[str, Mapping[str, Any]]], done: int, li
     counted = (
         " to ".join(dict.fromkeys(str(n) for n in (layouts[0], layouts[-1]))) if layouts else "0"
     )
-    head = (f"{done:,} of {listed:,} listed episodes in; {counted} layouts a cell. Success [%], mean "
-            "robot score and (in brackets) BARN's official score, a method's seeds averaged within a "
-            "layout.")  # fmt: skip
+    head = (f"{done:,} of {listed:,} listed episodes in; {counted} layouts a cell. Success [%], "
+            "mean robot score and (in brackets) BARN's official score, a method's seeds averaged "
+            "within a layout.")  # fmt: skip
     return f"{fit_prose(head)}\n\n{table}"
 
 

@@ -38,7 +38,7 @@ from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.margins import MARGIN_OPTIONS, MARGINS, check_margin, margin_text
 from d3dwa_bullet.evaluation.page_width import fit_prose, split_columns
 from d3dwa_bullet.evaluation.paired import Unit, metric_value
-from d3dwa_bullet.evaluation.readings import readings_by_group, readings_table
+from d3dwa_bullet.evaluation.readings import metric_text, readings_by_group, readings_table
 from d3dwa_bullet.evaluation.results import completion
 from d3dwa_bullet.method_specs import FIXED
 from tools.entry import ToolParser, tool_main
@@ -187,9 +187,7 @@ def _brief_reading(metric: str, record: Mapping[str, Any] | None) -> str:
     diff = record["difference"]
     if diff is None:
         return _SHORT[record["reading"]]
-    return _SHORT[record["reading"]] + (
-        f" {100 * diff:+.1f}" if metric == "success" else f" {diff:+.3f}"
-    )
+    return f"{_SHORT[record['reading']]} {metric_text(metric, diff, signed=True)}"
 
 
 def brief(records: Sequence[Mapping[str, Any]], margins: Mapping[str, float]) -> str:
@@ -209,7 +207,8 @@ def brief(records: Sequence[Mapping[str, Any]], margins: Mapping[str, float]) ->
         within = margin_text(metric, margins[metric])
         parts.append(f"{title} (margin {within}), the reading and A - B{unit}:\n\n{table}")
     legend = ("**A**: A better, **B**: B better, eq.: equivalent within the margin, inc.: "
-              "inconclusive; the intervals, p-values and layouts that would decide: without --brief.")  # fmt: skip
+              "inconclusive; the intervals, p-values and layouts that would decide: "
+              "without --brief.")  # fmt: skip
     return "\n".join(parts) + f"\n{fit_prose(legend)}\n"
 
 
