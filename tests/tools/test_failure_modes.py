@@ -42,3 +42,28 @@ def test_a_missing_log_is_named(tmp_path, capsys):
     next((out / "logs").glob("W__d3dwa__p0*")).unlink()
     assert main([str(out)]) == 2
     assert "W__d3dwa__p0__harsh__s0.npz: log of the episode is missing" in capsys.readouterr().err
+
+
+def test_logged_only_classifies_the_episodes_with_a_log_and_counts_the_rest(tmp_path, capsys):
+    out = results_dir(tmp_path)
+    for name in ("W__d3dwa__p0*", "W__dwa3*"):  # a d3dwa failure, and dwa3's only episode
+        next((out / "logs").glob(name)).unlink()
+    assert main([str(out)]) == 2
+    assert "(2 of 5 episodes have none; --logged-only" in capsys.readouterr().err
+    records = {r["method"]: r for r in failure_records(out, logged_only=True)}
+    assert set(records) == {"d3dwa"}  # dwa3 has no logged episode: no record
+    assert records["d3dwa"]["episodes"] == 3 and records["d3dwa"]["failures"] == 1
+    assert records["d3dwa"]["unlogged"] == 1
+    assert main([str(out), "--logged-only"]) == 0
+    printed = capsys.readouterr().out
+    assert "without a per-step log: 2 episodes" in printed and "DWA III" not in printed
+
+
+def test_logged_only_refuses_a_directory_without_any_log(tmp_path, capsys):
+    out = results_dir(tmp_path)
+    for path in (out / "logs").glob("*.npz"):
+        path.unlink()
+    assert main([str(out), "--logged-only"]) == 2
+    err = capsys.readouterr().err
+    assert "log of the episode is missing (5 of 5 episodes have none)" in err
+    assert len(err.strip().splitlines()) == 1

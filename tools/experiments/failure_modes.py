@@ -8,6 +8,11 @@ common among successes does not explain the failures), and the failures that tur
 (``circling``: a count beside the modes, see failures.CIRCLING_RAD_S). ``--figure PNG`` draws the primary modes as stacked bars per
 noise profile; ``--json`` prints the records.
 
+Every row needs its log. A directory that took episodes with ``--reuse`` keeps no log of them
+(nor does a results folder committed without ``logs/``): the tool then names the first missing
+log and how many are missing, and ``--logged-only`` classifies the episodes that have one,
+saying how many of each (noise, method) were left out (``unlogged`` in the records).
+
     python -m tools.experiments.failure_modes /work/results/profiles-seeds --figure modes.png
 """
 
@@ -22,22 +27,39 @@ from typing import Any
 
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.failures import MODES, SYMPTOMS, circling, classify, recoveries
-from d3dwa_bullet.evaluation.jobs import row_log
-from d3dwa_bullet.evaluation.results import job_rows, recovery_of
+from d3dwa_bullet.evaluation.jobs import log_name, row_log
+from d3dwa_bullet.evaluation.results import job_rows, recovery_of, row_key
 from d3dwa_bullet.evaluation.sweep_settings import PROFILES
 from d3dwa_bullet.io import atomic_savefig
 from d3dwa_bullet.method_specs import method_label
 from tools.entry import ToolParser, tool_main
 
 
-def failure_records(out: Path) -> list[dict[str, Any]]:
-    """One record per (noise, method): episodes, failures, modes, symptoms."""
+def _has_log(out: Path, row: dict[str, Any]) -> bool:
+    return (out / "logs" / log_name(row_key(row))).is_file()
+
+
+def failure_records(out: Path, logged_only: bool = False) -> list[dict[str, Any]]:
+    """One record per (noise, method): episodes, failures, modes, symptoms. An episode without
+    its log is refused (ResultsError: the first such log and how many), or with
+    ``logged_only`` left out and counted in ``unlogged``; a (noise, method) with no logged
+    episode then has no record, and a directory with none at all is refused."""
     if not (out / "results.csv").is_file():
         raise ResultsError(f"{out}: no results.csv")
     rows = job_rows(out)
+    unlogged = [r for r in rows if not _has_log(out, r)]
+    if unlogged and (not logged_only or len(unlogged) == len(rows)):
+        first = out / "logs" / log_name(row_key(unlogged[0]))
+        hint = "" if logged_only else "; --logged-only classifies the episodes that have one"
+        raise ResultsError(
+            f"{first}: log of the episode is missing ({len(unlogged)} of {len(rows)} episodes"
+            f" have none{hint})"
+        )
+    left: Counter[tuple[str, str]] = Counter((r["noise"], r["method"]) for r in unlogged)
     groups: dict[tuple[str, str], list[dict[str, Any]]] = defaultdict(list)
     for r in rows:
-        groups[(r["noise"], r["method"])].append(r)
+        if _has_log(out, r):
+            groups[(r["noise"], r["method"])].append(r)
     records = []
     for (noise, method), rs in groups.items():
         modes: Counter[str] = Counter()
@@ -65,6 +87,8 @@ def failure_records(out: Path) -> list[dict[str, Any]]:
             "recoveries": started, "recoveries_with_progress": progressed,
             # failures whose heading turned > 1 rad/s on average, whatever their mode
             "circling": circles,
+            # episodes of this (noise, method) without a log, left out (--logged-only)
+            "unlogged": left[(noise, method)],
         })  # fmt: skip
     return records
 
@@ -138,8 +162,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("dir", help="a results directory of `d3dwa sweep` or `d3dwa eval`")
     ap.add_argument("--figure", help="write the stacked-bar figure to this PNG")
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--logged-only", action="store_true",
+                    help="classify the episodes that have a per-step log, count the rest")  # fmt: skip
     args = ap.parse_args(argv)
-    records = failure_records(Path(args.dir))
+    records = failure_records(Path(args.dir), args.logged_only)
     found = list(dict.fromkeys(r["noise"] for r in records))
     noises = sorted(found, key=lambda n: PROFILES.index(n) if n in PROFILES else len(PROFILES))
     recovery = recovery_of(Path(args.dir))
@@ -152,6 +178,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         if recovery != "none":
             print(f"Recovery layer: {recovery}\n")
         print(markdown(records, noises), end="")
+        if args.logged_only:
+            out = Path(args.dir)
+            left = sum(not _has_log(out, r) for r in job_rows(out))
+            print(
+                f"\nLeft out, without a per-step log: {left} episode{'s' * (left != 1)} (in no row above)."
+            )
         if args.figure:
             print(f"figure: {args.figure}")
     return 0
