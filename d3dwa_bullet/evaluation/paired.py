@@ -142,6 +142,20 @@ def paired_by_group(
     return {g: paired_test(s) for g, s in groups.items()}
 
 
+FLOAT_NOISE = 1e-9
+"""Relative size below which a spread of per-unit differences is rounding, not spread."""
+
+
+def mean_sd(d: np.ndarray) -> tuple[float, float]:
+    """The mean and sample sd (ddof 1) of differences d (n >= 2,), the sd 0.0 when it is below
+    :data:`FLOAT_NOISE` times the largest |d| (at least 1): differences equal but for rounding
+    (0.8 - 0.6 and 1.0 - 0.8) have no spread, and a t statistic on them would be noise."""
+    mean, sd = float(d.mean()), float(d.std(ddof=1))
+    if sd <= FLOAT_NOISE * max(1.0, float(np.abs(d).max())):
+        sd = 0.0
+    return mean, sd
+
+
 def units_for_power(
     scores: Mapping[Unit, tuple[float, float]], alpha: float = 0.05, power: float = 0.8
 ) -> float | None:
@@ -154,7 +168,7 @@ def units_for_power(
     d = np.array([sa - sb for sa, sb in scores.values()], dtype=float)
     if d.size < 2:
         return None
-    mean, sd = float(d.mean()), float(d.std(ddof=1))
+    mean, sd = mean_sd(d)
     if mean <= 0:
         return float("inf")
     if sd == 0:

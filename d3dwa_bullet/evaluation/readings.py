@@ -48,6 +48,7 @@ from d3dwa_bullet.evaluation.paired import (
     Unit,
     layouts_for_difference,
     layouts_for_equivalence,
+    mean_sd,
     metric_value,
     paired_scores,
 )
@@ -88,7 +89,7 @@ def read_differences(d: Sequence[float], margin: float, alpha: float = ALPHA) ->
         if n:
             out["difference"] = float(x[0])
         return out
-    mean, sd = float(x.mean()), float(x.std(ddof=1))
+    mean, sd = mean_sd(x)
     out |= {"difference": mean, "sd": sd}
     if sd == 0:  # the t statistic is +-inf (or 0/0): its limit
         out |= {"low": mean, "high": mean, "why": f"no spread: every layout differs by {mean:.4g}",
@@ -154,7 +155,7 @@ def plan_of(
     if d.size < MIN_LAYOUTS:
         out["why"] = f"no plan: a pilot needs {MIN_LAYOUTS} layouts or more to show a spread"
         return out
-    mean, sd = float(d.mean()), float(d.std(ddof=1))
+    mean, sd = mean_sd(d)
     diff = layouts_for_difference(mean, sd, alpha / 2, POWER)
     equiv = layouts_for_equivalence(mean, sd, margin, alpha, POWER)
     aim = "equivalent" if equiv <= diff else ("A better" if mean > 0 else "B better")

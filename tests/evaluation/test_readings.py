@@ -5,6 +5,7 @@ layouts that would decide give the power they name; the edge cases say why."""
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -19,6 +20,7 @@ from d3dwa_bullet.evaluation.paired import (
     layouts_for_difference,
     layouts_for_equivalence,
     paired_scores,
+    units_for_power,
 )
 from d3dwa_bullet.evaluation.readings import (
     NO_SCORE,
@@ -120,6 +122,19 @@ def test_fewer_than_two_layouts_no_spread_and_nan_say_why() -> None:
         nan["reading"] is None and reading_text(nan) == "no reading: 1 of 3 layouts have no value"
     )
     assert all(v is None or not (isinstance(v, float) and math.isnan(v)) for v in nan.values())
+
+
+def test_differences_equal_but_for_rounding_have_no_spread_and_warn_nothing() -> None:
+    d = [0.8 - 0.6, 1.0 - 0.8, 0.4 - 0.2]  # 0.2 each, a sample sd of about 6.5e-17
+    assert np.std(d, ddof=1) > 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # SciPy warns of catastrophic cancellation on these
+        out = read_differences(d, 0.03)
+    assert out["sd"] == 0.0 and out["reading"] == "A better"
+    assert out["why"] == "no spread: every layout differs by 0.2"
+    assert units_for_power({k: (v, 0.0) for k, v in enumerate(d)}) is None
+    spread = read_differences([0.2, 0.2 + 1e-6, 0.2], 0.03)  # a spread a millionth wide is one
+    assert spread["sd"] > 0 and spread["why"] is None
 
 
 @pytest.mark.parametrize("value", [0.0, -1.0, float("nan"), float("inf"), 101.0])
