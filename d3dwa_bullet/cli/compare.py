@@ -5,8 +5,9 @@ than a run of B on the same task (world and noise), ties counting half, averaged
 tasks of a group; 0.5 is no difference. A learned method's runs are its training seeds, a
 fixed or reference method's its evaluation seeds (:mod:`d3dwa_bullet.evaluation.seed_tables`). Groups:
 the shipped world groups (train, unseen, real) of a ``d3dwa eval`` directory, or the layout
-groups (shipped, generated) of a ``d3dwa sweep`` directory, each under its noise, then
-every layout under each noise, then all tasks.
+groups (shipped, generated, BARN's terciles) of a ``d3dwa sweep`` directory, each under its
+noise, with the unseen layouts also by generator style when there are several; then every
+layout under each noise, then all tasks.
 
 Beside each P(A > B), a test paired by layout: the one-sided Wilcoxon signed-rank p-value of
 A > B over the (layout, noise, evaluation seed) both ran, each side's success there averaged
@@ -39,6 +40,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -104,10 +107,18 @@ def margins_of(args: argparse.Namespace) -> dict[str, float]:
     }
 
 
-def _groups_of(row: dict[str, Any], shipped: dict[str, str]) -> list[str]:
+def _groups_of(
+    row: dict[str, Any],
+    shipped: dict[str, str],
+    style_of: Callable[[Any], str | None] | None = None,
+) -> list[str]:
+    """The groups of a row, finest first. style_of: a sweep's unseen layout is also in its
+    generator style's group (a stratum), before the pooled ``generated``."""
     noise = row["noise"]
     if "layout" in row:  # a sweep's row
-        return [f"{row['layout']} ({noise})", f"all layouts ({noise})"]
+        style = style_of(row) if style_of else None
+        finer = [f"{style} ({noise})"] if style else []
+        return [*finer, f"{row['layout']} ({noise})", f"all layouts ({noise})"]
     barn = barn_index(row["world"])  # a BARN world of an eval: its difficulty tercile
     group = shipped.get(row["world"], "custom") if barn is None else barn_tercile_group(barn)
     return [f"{group} ({noise})", f"all worlds ({noise})"]
@@ -221,6 +232,7 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
     )
     from d3dwa_bullet.evaluation.readings import readings_by_group
     from d3dwa_bullet.evaluation.seed_tables import improvement
+    from d3dwa_bullet.evaluation.style_tables import style_of, styles_present
     from d3dwa_bullet.evaluation.training_worlds import trained_counts, trained_worlds
     from d3dwa_bullet.method_specs import method_label
     from d3dwa_bullet.world.registry import world_groups
@@ -243,13 +255,14 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
     rows = [r | {"method": key_a} for r in rows_a] + [r | {"method": key_b} for r in rows_b]
     source = f"{out / 'results.csv'}" + (f" and {other / 'results.csv'}" if args.against else "")
     absent = check_layouts(paired_scores(rows, key_a, key_b), a, b, source)
-    shipped = world_groups()
-    records = improvement(rows, key_a, key_b, lambda r: _groups_of(r, shipped))
+    by_style = style_of if len(styles_present(rows)) > 1 else None
+    groups_of = partial(_groups_of, shipped=world_groups(), style_of=by_style)
+    records = improvement(rows, key_a, key_b, groups_of)
     by_seed = args.pair_by == "layout-seed"
     if absent is None:
-        group_of = {unit_of(r, by_seed): _groups_of(r, shipped) for r in rows}
+        group_of = {unit_of(r, by_seed): groups_of(r) for r in rows}
         paired = paired_by_group(rows, key_a, key_b, group_of, by_seed)
-        layout_groups = {unit_of(r, False): _groups_of(r, shipped) for r in rows}
+        layout_groups = {unit_of(r, False): groups_of(r) for r in rows}
         readings = readings_by_group(rows, key_a, key_b, layout_groups, args.margins)
         for record in records:
             test = paired.get(record["group"], {})
@@ -257,7 +270,7 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
             record["readings"] = readings.get(record["group"], {})
     sides = {key_a: (a, labels[key_a]), key_b: (b, labels[key_b])}
     training = trained_sides(out, other, sides)
-    groups = {g: {r["world"] for r in rows if g in ("all", *_groups_of(r, shipped))}
+    groups = {g: {r["world"] for r in rows if g in ("all", *groups_of(r))}
               for g in (r["group"] for r in records)}  # fmt: skip
     names = trained_worlds(training)
     for record in records:  # its P(A > B) and its readings: the same group of worlds

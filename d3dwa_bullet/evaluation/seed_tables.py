@@ -247,14 +247,15 @@ def improvement(
     shared = [t for t, per in tasks.items() if a in per and b in per]
     if not shared:
         raise ResultsError(f"methods {a!r} and {b!r} share no (world, noise) in these results")
-    depth = max(len(member[t]) for t in shared)
+    # the finest groups first, then the coarser ones, each at the deepest place a row puts it
+    # ("all layouts" after "generated" when a style comes first), in first-seen order within
     level_of: dict[str, int] = {}
-    for level in range(depth):  # the finest groups first, then the coarser ones
-        for t in shared:
-            if level < len(member[t]):
-                level_of.setdefault(member[t][level], level)
+    for t in shared:
+        for level, name in enumerate(member[t]):
+            level_of[name] = max(level, level_of.get(name, level))
+    seen = {name: i for i, name in enumerate(dict.fromkeys(g for t in shared for g in member[t]))}
     records = []
-    for name in [*level_of, "all"]:
+    for name in [*sorted(level_of, key=lambda g: (level_of[g], seen[g])), "all"]:
         members = shared if name == "all" else [t for t in shared if name in member[t]]
         if name != "all" and level_of[name] > 0 and len(members) == len(shared):
             continue  # a coarser group with the same tasks as "all": that row says it

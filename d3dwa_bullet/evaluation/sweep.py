@@ -66,6 +66,7 @@ from d3dwa_bullet.evaluation.score_tables import score_condition_tables
 from d3dwa_bullet.evaluation.scores import UNSCORED_NOTE, is_scored
 from d3dwa_bullet.evaluation.seed_tables import condition_table
 from d3dwa_bullet.evaluation.stats import Series, group_series
+from d3dwa_bullet.evaluation.style_tables import style_section
 from d3dwa_bullet.evaluation.sweep_settings import (
     BASELINE,
     SweepSettings,
@@ -317,6 +318,7 @@ def sweep_markdown(
             score_condition_tables(rows, settings.methods, settings.profiles, profile_of,
                                    groups, lambda r: r["layout"], flag)
         )  # fmt: skip
+        parts.append(style_section(rows, settings.methods, settings.profiles, profile_of, flag))
     floors = floor_table(floor_records(rows, settings.methods))
     if floors:
         parts.append(

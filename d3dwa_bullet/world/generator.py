@@ -211,9 +211,18 @@ def generate_world(style: str, seed: int) -> World:
     )
 
 
-def generated_world_from_name(name: str) -> World | None:
-    """'R2-style-s17' -> generate_world('R2-style', 17); None if name is not of that form."""
+def generated_style(name: str) -> str | None:
+    """'R2-style-s17' -> 'R2-style': the shipped style of a generated layout's name, without
+    generating it; None if name is not of that form."""
     style, sep, seed = name.rpartition("-s")
     if not sep or not seed.isdigit() or style not in list_generator_styles():
         return None
-    return generate_world(style, int(seed))
+    return style
+
+
+def generated_world_from_name(name: str) -> World | None:
+    """'R2-style-s17' -> generate_world('R2-style', 17); None if name is not of that form."""
+    style = generated_style(name)
+    if style is None:
+        return None
+    return generate_world(style, int(name.rpartition("-s")[2]))

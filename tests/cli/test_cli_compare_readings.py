@@ -154,3 +154,36 @@ def test_an_eval_of_barn_worlds_is_compared_per_difficulty_tercile(tmp_path, cap
     groups = {barn_tercile_group(barn_index(w)) for w in worlds}
     assert all(f"| {g} (real) |" in printed for g in groups)
     assert "| custom (real) |" not in printed
+
+
+def sweep_dir(path, layouts):
+    """A sweep's results directory (its layout column): dwa3 and dwa1 on (world, group) pairs,
+    as results_dir's rule decides their outcomes."""
+    rows = []
+    for k, (w, group) in enumerate(layouts):
+        for s in (0, 1):
+            for m, mod in (("dwa3", 3), ("dwa1", 2)):
+                rows.append(dict(world=w, layout=group, axis="profile", level="", method=m,
+                                 policy_seed="", seed=s, noise="real",
+                                 outcome="goal" if (k + s) % mod else "timeout", time_s=5.0 + k))  # fmt: skip
+    write_results(path, ((r, {}) for r in rows))
+    (path / "meta.json").write_text(json.dumps({"format": 3, "settings": {}, "jobs": []}))
+    return path
+
+
+def test_a_sweep_of_several_styles_is_read_per_style_then_pooled(tmp_path, capsys):
+    layouts = [("R1", "shipped")] + [
+        (f"R{i}-style-s{k}", "generated") for i in (1, 2) for k in (1, 2, 3)
+    ]
+    out = sweep_dir(tmp_path / "styles", layouts)
+    assert main(["compare", str(out), "--methods", "dwa3,dwa1", "--json"]) == 0
+    records = json.loads(capsys.readouterr().out)["groups"]
+    assert [(r["group"], r["tasks"]) for r in records] == [
+        ("shipped (real)", 1), ("R1-style (real)", 3), ("R2-style (real)", 3),
+        ("generated (real)", 6), ("all", 7),
+    ]  # fmt: skip
+    assert records[1]["readings"]["success"]["layouts"] == 3
+    one = sweep_dir(tmp_path / "one", [(f"R1-style-s{k}", "generated") for k in (1, 2, 3)])
+    assert main(["compare", str(one), "--methods", "dwa3,dwa1", "--json"]) == 0
+    groups = [r["group"] for r in json.loads(capsys.readouterr().out)["groups"]]
+    assert groups == ["generated (real)", "all"]  # one style: its stratum is the pool

@@ -194,3 +194,25 @@ def test_finer_groups_come_first_and_coarser_ones_follow():
         ("all worlds (harsh)", 1), ("all", 3),
     ]  # fmt: skip
     assert all(r["p"] == pytest.approx(0.75) for r in records)  # [1, 0] vs [0]: 1 and 0.5
+
+
+def test_a_group_sits_at_the_deepest_place_a_row_puts_it():
+    # a shipped world has two groups, a generated one three (its style first): the pooled
+    # "generated" comes before "all layouts", which a shipped row puts one level higher
+    rows = []
+    for world in ("R1", "R1-style-s9", "R2-style-s9"):
+        rows += learned(world, [1, 0]) + learned(world, [0], method="dwa3")
+
+    def groups(r):
+        if r["world"] == "R1":
+            return ["shipped", "all layouts"]
+        return [r["world"][:8], "generated", "all layouts"]
+
+    records = improvement(rows, "d3dwa", "dwa3", groups)
+    assert [(r["group"], r["tasks"]) for r in records] == [
+        ("shipped", 1),
+        ("R1-style", 1),
+        ("R2-style", 1),
+        ("generated", 2),
+        ("all", 3),
+    ]  # fmt: skip  ("all layouts" holds what "all" does: that row says it)
