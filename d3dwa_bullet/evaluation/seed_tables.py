@@ -249,6 +249,7 @@ def improvement(
         raise ResultsError(f"methods {a!r} and {b!r} share no (world, noise) in these results")
     # the finest groups first, then the coarser ones, each at the deepest place a row puts it
     # ("all layouts" after "generated" when a style comes first), in first-seen order within
+    # a level
     level_of: dict[str, int] = {}
     for t in shared:
         for level, name in enumerate(member[t]):
