@@ -122,10 +122,16 @@ def log_name(key: Key) -> str:
     return file_stem(_UNSAFE.sub("_", f"{world}__{method}{trained}__{noise}__s{seed}")) + ".npz"
 
 
+def row_log_path(out: Path, row: Mapping[str, Any]) -> Path:
+    """Where results directory ``out`` keeps the per-step log of the episode a results.csv
+    ``row`` records (it may be missing: an episode taken with --reuse has none)."""
+    return out / "logs" / log_name(row_key(row))
+
+
 def row_log(out: Path, row: Mapping[str, Any]) -> dict[str, Any]:
     """The per-step log of the episode a results.csv ``row`` of results directory ``out``
     records; ResultsError (one line, the file) if it is missing."""
-    path = out / "logs" / log_name(row_key(row))
+    path = row_log_path(out, row)
     if not path.is_file():
         raise ResultsError(f"{path}: log of the episode is missing")
     return load_log(path)

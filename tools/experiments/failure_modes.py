@@ -27,16 +27,12 @@ from typing import Any
 
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.failures import MODES, SYMPTOMS, circling, classify, recoveries
-from d3dwa_bullet.evaluation.jobs import log_name, row_log
-from d3dwa_bullet.evaluation.results import job_rows, recovery_of, row_key
+from d3dwa_bullet.evaluation.jobs import row_log, row_log_path
+from d3dwa_bullet.evaluation.results import job_rows, recovery_of
 from d3dwa_bullet.evaluation.sweep_settings import PROFILES
 from d3dwa_bullet.io import atomic_savefig
 from d3dwa_bullet.method_specs import method_label
 from tools.entry import ToolParser, tool_main
-
-
-def _has_log(out: Path, row: dict[str, Any]) -> bool:
-    return (out / "logs" / log_name(row_key(row))).is_file()
 
 
 def failure_records(out: Path, logged_only: bool = False) -> list[dict[str, Any]]:
@@ -47,9 +43,12 @@ def failure_records(out: Path, logged_only: bool = False) -> list[dict[str, Any]
     if not (out / "results.csv").is_file():
         raise ResultsError(f"{out}: no results.csv")
     rows = job_rows(out)
-    unlogged = [r for r in rows if not _has_log(out, r)]
-    if unlogged and (not logged_only or len(unlogged) == len(rows)):
-        first = out / "logs" / log_name(row_key(unlogged[0]))
+    logged: list[dict[str, Any]] = []
+    unlogged: list[dict[str, Any]] = []
+    for r in rows:
+        (logged if row_log_path(out, r).is_file() else unlogged).append(r)
+    if unlogged and (not logged_only or not logged):
+        first = row_log_path(out, unlogged[0])
         hint = "" if logged_only else "; --logged-only classifies the episodes that have one"
         raise ResultsError(
             f"{first}: log of the episode is missing ({len(unlogged)} of {len(rows)} episodes"
@@ -57,9 +56,8 @@ def failure_records(out: Path, logged_only: bool = False) -> list[dict[str, Any]
         )
     left: Counter[tuple[str, str]] = Counter((r["noise"], r["method"]) for r in unlogged)
     groups: dict[tuple[str, str], list[dict[str, Any]]] = defaultdict(list)
-    for r in rows:
-        if _has_log(out, r):
-            groups[(r["noise"], r["method"])].append(r)
+    for r in logged:
+        groups[(r["noise"], r["method"])].append(r)
     records = []
     for (noise, method), rs in groups.items():
         modes: Counter[str] = Counter()
@@ -178,9 +176,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if recovery != "none":
             print(f"Recovery layer: {recovery}\n")
         print(markdown(records, noises), end="")
-        if args.logged_only:
-            out = Path(args.dir)
-            left = sum(not _has_log(out, r) for r in job_rows(out))
+        if args.logged_only:  # every row not in a record's episodes had no log
+            left = len(job_rows(Path(args.dir))) - sum(r["episodes"] for r in records)
             print(
                 f"\nLeft out, without a per-step log: {left} episode{'s' * (left != 1)} (in no row above)."
             )
