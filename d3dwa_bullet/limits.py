@@ -43,10 +43,17 @@ class Limit:
 
 MAX_DOCUMENT_BYTES = Limit(4 * 2**20, "a YAML, JSON or XML file of this project is a few kB")
 """Size of one YAML, JSON or XML document read whole (a world, Gazebo SDF world, profile,
-training config, map_server YAML, a ROS 2 bag's metadata.yaml, meta.json, summary.json,
-config.json, training_state.json). The largest the
-project writes is a few kB; 16 MiB leaves room for generated worlds with thousands of
-obstacles and refuses a huge or endless file before a byte of it is read."""
+training config, map_server YAML, a ROS 2 bag's metadata.yaml, summary.json, config.json,
+training_state.json). The largest the project writes is a few kB; 4 MiB leaves room for
+generated worlds with thousands of obstacles and refuses a huge or endless file before a
+byte of it is read. A results directory's meta.json has its own limit, below."""
+
+MAX_RUN_META_BYTES = Limit(
+    256 * 2**20, "a run's meta.json lists every episode's key, one line each"
+)
+"""Size of a results directory's meta.json, read whole. It lists the key of every job of the
+run, about 50 bytes each, so it grows with the run as results.csv does: the BARN yardstick's
+137,700 episodes take about 7 MB. 256 MiB holds about five million episodes."""
 
 MAX_TEXT_BYTES = Limit(1 * 2**30, "text files are read whole into memory")
 """Size of any other text file read whole (results.csv, metrics.jsonl): a sweep of a million

@@ -44,6 +44,7 @@ from d3dwa_bullet.limits import (
     MAX_NESTING_DEPTH,
     MAX_TEXT_BYTES,
     MAX_XML_DEPTH,
+    Limit,
 )
 
 
@@ -238,11 +239,14 @@ def parse_json(text: str | bytes, error: type[D3DWAError], source: str) -> Any:
 
 
 def load_json(
-    path: str | os.PathLike[str], error: type[D3DWAError], what: str = "JSON file"
+    path: str | os.PathLike[str],
+    error: type[D3DWAError],
+    what: str = "JSON file",
+    limit: Limit = MAX_DOCUMENT_BYTES,
 ) -> Any:
     """The content of a JSON file; ``error`` naming the file for a file that cannot be
-    read, is too large, is not JSON or nests beyond the limit."""
-    return parse_json(read_text(path, error, what, MAX_DOCUMENT_BYTES), error, str(path))
+    read, is larger than ``limit`` bytes, is not JSON or nests beyond the limit."""
+    return parse_json(read_text(path, error, what, limit), error, str(path))
 
 
 def load_json_lines(

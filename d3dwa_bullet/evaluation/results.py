@@ -46,6 +46,7 @@ from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.columns import TYPED_COLUMNS, check_one_track
 from d3dwa_bullet.evaluation.repeats import Key, kept_keys
 from d3dwa_bullet.io import AppendFile, atomic_write_bytes, atomic_write_text, read_text
+from d3dwa_bullet.limits import MAX_RUN_META_BYTES
 from d3dwa_bullet.loading import load_json
 
 if TYPE_CHECKING:  # for annotations only: this module reads and writes files, runs nothing
@@ -161,7 +162,7 @@ def read_meta(out: Path) -> dict[str, Any]:
     meta = out / "meta.json"
     if not meta.exists():
         return {}
-    data = load_json(meta, ResultsError, "JSON file")
+    data = load_json(meta, ResultsError, "JSON file", MAX_RUN_META_BYTES)
     if not isinstance(data, dict):
         raise ResultsError(f"{meta}: expected a JSON object, got {type(data).__name__}")
     return data
@@ -174,16 +175,19 @@ def write_meta(
     fields: Sequence[str],
     keys: Sequence[Key],
 ) -> None:
-    """meta.json of a run: config is the run's EpisodeConfig (a dataclass), keys its jobs'."""
+    """meta.json of a run: config is the run's EpisodeConfig (a dataclass), keys its jobs'.
+    Each job's key takes one line (a sweep lists a hundred thousand of them)."""
     meta = {
         "format": RESULTS_FORMAT,
         "version": __version__,
         "config": asdict(config),
         "settings": dict(settings),
         "columns": list(fields),
-        "jobs": [list(k) for k in keys],
     }
-    atomic_write_text(out / "meta.json", json.dumps(meta, indent=1, default=str))
+    head = json.dumps(meta, indent=1, default=str).removesuffix("\n}")
+    jobs = ",\n".join(f"  {json.dumps(list(k), default=str)}" for k in keys)
+    text = f'{head},\n "jobs": [\n{jobs}\n ]\n}}' if jobs else f'{head},\n "jobs": []\n}}'
+    atomic_write_text(out / "meta.json", text)
 
 
 def csv_header(out: Path) -> list[str] | None:
