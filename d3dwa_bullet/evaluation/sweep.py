@@ -43,6 +43,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from tqdm import tqdm
+
 from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig
@@ -86,6 +88,7 @@ from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.learning.agents.barn_record import BarnTraining
 from d3dwa_bullet.limits import MAX_EPISODES
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
+from d3dwa_bullet.world.generator_spec import load_generator
 from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.registry import load_world, world_paths
 
@@ -138,21 +141,26 @@ def given_group(name: str) -> str:
     return tercile_group(name) or "given"
 
 
-def sweep_worlds(settings: SweepSettings) -> list[tuple[World, str]]:
+def sweep_worlds(settings: SweepSettings, progress: bool = False) -> list[tuple[World, str]]:
     """(world, layout group) pairs (:data:`LAYOUT_GROUPS`), with the time-limit override
-    applied."""
+    applied. Generating a layout takes about 0.1 s, so (with progress) a bar counts them:
+    2,250 take minutes before the first episode."""
     pairs = [(load_world(w), given_group(w)) for w in settings.worlds]
-    pairs += [
-        (generate_world(style, seed), "generated")
-        for style in settings.styles
-        for seed in unseen_layout_seeds(settings.layouts)
+    for style in settings.styles:
+        load_generator(style)  # an unknown style is refused alone, before the bar starts
+    todo = [
+        (style, seed) for style in settings.styles for seed in unseen_layout_seeds(settings.layouts)
     ]
+    with tqdm(todo, disable=not progress, desc="layouts", unit="layout", leave=False) as bar:
+        pairs += [(generate_world(style, seed), "generated") for style, seed in bar]
     if settings.time_limit is not None:
         pairs = [(w.with_task(time_limit=settings.time_limit), g) for w, g in pairs]
     return pairs
 
 
-def sweep_jobs(settings: SweepSettings, policy: str | None = None) -> list[Job]:
+def sweep_jobs(
+    settings: SweepSettings, policy: str | None = None, progress: bool = False
+) -> list[Job]:
     """Every episode of the sweep: worlds x (methods x training seeds) x conditions x seeds."""
     seeds = range(settings.first_seed, settings.first_seed + settings.seeds)
     runs = method_runs(settings.methods, policy, settings.policy_seeds)
@@ -161,7 +169,7 @@ def sweep_jobs(settings: SweepSettings, policy: str | None = None) -> list[Job]:
         Job(world, run.method, seed, c.noise, run.policy, c.noise_config,
             (("axis", c.axis), ("level", "" if c.level is None else c.level), ("layout", group)),
             policy_seed=run.policy_seed)
-        for world, group in sweep_worlds(settings)
+        for world, group in sweep_worlds(settings, progress)
         for run in runs
         for c in conditions(settings)
         for seed in seeds
@@ -361,7 +369,7 @@ def run_sweep(
     for run in runs:
         make_controller(run.method, run.policy)  # fail fast on a missing policy
     out = Path(out)
-    jobs = sweep_jobs(settings, policy)
+    jobs = sweep_jobs(settings, policy, progress)
     meta = {"kind": "sweep", "command": command} | settings.to_dict()
     meta["policy_digests"] = policy_digests(runs)
     meta["method_sources"] = method_origins(settings.methods)
