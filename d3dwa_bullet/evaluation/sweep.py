@@ -151,7 +151,9 @@ def sweep_worlds(settings: SweepSettings, progress: bool = False) -> list[tuple[
     todo = [
         (style, seed) for style in settings.styles for seed in unseen_layout_seeds(settings.layouts)
     ]
-    with tqdm(todo, disable=not progress, desc="layouts", unit="layout", leave=False) as bar:
+    with tqdm(
+        todo, disable=not (progress and todo), desc="layouts", unit="layout", leave=False
+    ) as bar:
         pairs += [(generate_world(style, seed), "generated") for style, seed in bar]
     if settings.time_limit is not None:
         pairs = [(w.with_task(time_limit=settings.time_limit), g) for w, g in pairs]
