@@ -315,7 +315,9 @@ def test_the_sweep_page_scores_each_cell_and_marks_rows_from_before_the_score(
 
 
 def test_generating_the_layouts_shows_a_bar_only_with_progress(capsys):
-    settings = SweepSettings(methods=("dwa1",), worlds=(), styles=("R1-style", "R2-style"), layouts=1)
+    settings = SweepSettings(
+        methods=("dwa1",), worlds=(), styles=("R1-style", "R2-style"), layouts=1
+    )
     assert len(sweep_worlds(settings, progress=True)) == 2
     assert "layouts" in (err := capsys.readouterr().err) and "2/2" in err
     sweep_worlds(settings)
