@@ -129,11 +129,18 @@ def test_a_second_eval_into_a_held_out_is_refused_before_it_writes(
     assert not (out / LOCK_FILE).exists()
 
 
-def test_a_second_sweep_into_a_held_out_is_refused(tmp_path, capsys, hold, one_second_world):
+def no_layouts(*args, **kwargs):
+    raise AssertionError("a layout was generated for a sweep into a held directory")
+
+
+def test_a_second_sweep_into_a_held_out_is_refused_before_it_builds_layouts(
+    tmp_path, capsys, hold, one_second_world, monkeypatch
+):
+    monkeypatch.setattr("d3dwa_bullet.evaluation.sweep.generate_world", no_layouts)
     out = tmp_path / "sweep"
     holder = hold(out)
-    line = refused(capsys, "sweep", "--worlds", one_second_world, "--layouts", "0", "--axes", "",
-                   "--profiles", "none", "--methods", "dwa1", "--out", out)  # fmt: skip
+    line = refused(capsys, "sweep", "--worlds", one_second_world, "--styles", "R1-style", "--layouts", "1",
+                   "--axes", "", "--profiles", "none", "--methods", "dwa1", "--out", out)  # fmt: skip
     assert f"pid {holder.pid}" in line
     assert snapshot(out) == {LOCK_FILE: snapshot(out)[LOCK_FILE]}  # nothing but the holder's lock
 

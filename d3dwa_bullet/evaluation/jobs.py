@@ -27,7 +27,6 @@ from d3dwa_bullet.backends import open_backend
 from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig, EpisodeResult, run_episode
-from d3dwa_bullet.episode_metrics import SCORE_FORM
 from d3dwa_bullet.errors import ConfigError, ResultsError
 from d3dwa_bullet.evaluation.policy_runs import check_scan_filters
 from d3dwa_bullet.evaluation.repeats import kept_keys
@@ -44,8 +43,6 @@ from d3dwa_bullet.evaluation.results import (
     read_results,
     row_key,
     save_log,
-    with_recovery,
-    with_sources,
     write_meta,
 )
 from d3dwa_bullet.evaluation.reuse import (
@@ -56,11 +53,10 @@ from d3dwa_bullet.evaluation.reuse import (
     reused_record,
     world_digests,
 )
-from d3dwa_bullet.evaluation.same_run import check_same_run
+from d3dwa_bullet.evaluation.same_run import check_same_run, run_fields, run_settings
 from d3dwa_bullet.evaluation.scores import add_scores, needs_scores, score_cells
 from d3dwa_bullet.io import file_stem
 from d3dwa_bullet.loading import parse_json
-from d3dwa_bullet.method_specs import method_family
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.noise_config import NoiseConfig
 from d3dwa_bullet.world.model import World
@@ -223,12 +219,9 @@ def _evaluate(
     reuse: Reuse | None,
 ) -> list[dict[str, Any]]:
     recovery = config.recovery_name
-    fields = with_recovery(fields, recovery)
-    fields = with_sources(fields, any(method_family(j.method) == "external" for j in jobs))
-    settings = dict(settings or {"kind": "eval"}) | {"score_form": SCORE_FORM}
+    fields = run_fields(fields, recovery, (j.method for j in jobs))
+    settings = run_settings(settings, recovery)
     v_max = config.planner.limits.v_max
-    if recovery != "none":
-        settings["recovery"] = recovery
     check_distinct(jobs)
     check_scan_filters(((j.method, j.policy) for j in jobs), config.scan_filter)
     unique: dict[Key, Job] = {}

@@ -3,21 +3,67 @@
 A run into a directory that already holds rows may resume it or extend it, never shrink or
 mix it (:mod:`d3dwa_bullet.evaluation.results` says why): :func:`check_same_run` names what
 differs (jobs left out, episode config, score form, episode settings, a policy's weights, a
-method's or a world's source).
+method's or a world's source). :func:`check_resumable` is the part that needs no job, for a
+command whose jobs take minutes to build (a sweep's generated layouts) to refuse before it.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from d3dwa_bullet.episode_metrics import SCORE_FORM
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.repeats import Key
-from d3dwa_bullet.evaluation.results import EPISODE_SETTINGS, read_meta, read_results, row_key
+from d3dwa_bullet.evaluation.results import (
+    EPISODE_SETTINGS,
+    check_results_dir,
+    read_meta,
+    read_results,
+    row_key,
+    with_recovery,
+    with_sources,
+)
 from d3dwa_bullet.loading import parse_json
+from d3dwa_bullet.method_specs import method_family
+
+
+def run_fields(fields: Sequence[str], recovery: str, methods: Iterable[str]) -> tuple[str, ...]:
+    """The CSV columns of a run of methods: fields, with the recovery and source columns it needs."""
+    external = any(method_family(m) == "external" for m in methods)
+    return with_sources(with_recovery(fields, recovery), external)
+
+
+def run_settings(settings: Mapping[str, Any] | None, recovery: str) -> dict[str, Any]:
+    """A command's settings as its meta.json records them: with the score form, and the
+    recovery layer when one runs."""
+    out = dict(settings or {"kind": "eval"}) | {"score_form": SCORE_FORM}
+    if recovery != "none":
+        out["recovery"] = recovery
+    return out
+
+
+def check_resumable(
+    out: Path, fields: Sequence[str], config: Any, settings: Mapping[str, Any]
+) -> None:
+    """ResultsError unless out takes a run with these columns (from :func:`run_fields`),
+    episode config and settings (from :func:`run_settings`), whatever its jobs: the checks of
+    :func:`check_same_run` that need no job, with the directory's format and columns."""
+    check_results_dir(out, fields, config.recovery_name)
+    if _holds_rows(out):
+        _check_settings(out, config, settings)
+
+
+def _holds_rows(out: Path) -> bool:
+    path = out / "results.csv"
+    if not path.exists():
+        return False
+    with path.open(encoding="utf-8") as fh:
+        fh.readline()
+        return bool(fh.readline().strip())
 
 
 def config_record(config: Any) -> Any:
@@ -49,6 +95,10 @@ def check_same_run(
             f"{out / 'results.csv'}: holds {len(extra)} episode(s) this command does not list "
             f"({what}); list them too to extend that evaluation, or use another --out directory"
         )
+    _check_settings(out, config, settings)
+
+
+def _check_settings(out: Path, config: Any, settings: Mapping[str, Any]) -> None:
     meta = read_meta(out)
     here = config_record(config)
     diffs = "; ".join(

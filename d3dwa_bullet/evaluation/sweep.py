@@ -64,6 +64,7 @@ from d3dwa_bullet.evaluation.results import (
     row_key,
 )
 from d3dwa_bullet.evaluation.reuse import Reuse
+from d3dwa_bullet.evaluation.same_run import check_resumable, run_fields, run_settings
 from d3dwa_bullet.evaluation.score_tables import score_condition_tables
 from d3dwa_bullet.evaluation.scores import UNSCORED_NOTE, is_scored
 from d3dwa_bullet.evaluation.seed_tables import condition_table
@@ -371,7 +372,6 @@ def run_sweep(
     for run in runs:
         make_controller(run.method, run.policy)  # fail fast on a missing policy
     out = Path(out)
-    jobs = sweep_jobs(settings, policy, progress)
     meta = {"kind": "sweep", "command": command} | settings.to_dict()
     meta["policy_digests"] = policy_digests(runs)
     meta["method_sources"] = method_origins(settings.methods)
@@ -381,6 +381,10 @@ def run_sweep(
     training = runs_barn_training(runs)
     meta[SETTINGS_KEY] = settings_entry(training)
     with locked_dir(out):  # one writer: the episodes, then the page and figures
+        # refused (held, another time limit, ...) before minutes of generating layouts
+        fields = run_fields(SWEEP_FIELDS, config.recovery_name, settings.methods)
+        check_resumable(out, fields, config, run_settings(meta, config.recovery_name))
+        jobs = sweep_jobs(settings, policy, progress)
         evaluate(jobs, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta, reuse)
         keys = {j.key for j in jobs}
         rows = once_per_layout([r for r in read_sweep(out) if row_key(r) in keys])

@@ -11,15 +11,18 @@ import subprocess
 import sys
 import time
 from collections import Counter
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from d3dwa_bullet.cli.app import main
+from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.episode_metrics import SCORE_FORM
-from d3dwa_bullet.errors import D3DWAError
+from d3dwa_bullet.errors import D3DWAError, ResultsError
 from d3dwa_bullet.evaluation import jobs as evaluation
+from d3dwa_bullet.evaluation import sweep
 from d3dwa_bullet.evaluation.jobs import evaluate
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.report import eval_markdown
@@ -35,6 +38,7 @@ from d3dwa_bullet.evaluation.sweep import (
     sweep_markdown,
     sweep_worlds,
 )
+from d3dwa_bullet.params import recovery_params
 from d3dwa_bullet.sim.noise_config import NoiseConfig
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
 from d3dwa_bullet.world.registry import load_world
@@ -322,3 +326,30 @@ def test_generating_the_layouts_shows_a_bar_only_with_progress(capsys):
     assert "layouts" in (err := capsys.readouterr().err) and "2/2" in err
     sweep_worlds(settings)
     assert capsys.readouterr().err == ""
+
+
+def test_a_sweep_refuses_another_episode_config_before_it_builds_layouts(
+    one_second_world, tmp_path, monkeypatch
+):
+    settings = tiny_settings(one_second_world, methods=("dwa1",), axes=(), profiles=("none",))
+    run_sweep(settings, tmp_path, progress=False, figures=False)
+    before = (tmp_path / "results.csv").read_text()
+
+    def no_jobs(*args, **kwargs):
+        raise AssertionError("jobs built for a directory the sweep refuses")
+
+    monkeypatch.setattr(sweep, "sweep_jobs", no_jobs)
+    base = EpisodeConfig()
+    other = replace(base, termination=replace(base.termination, time_limit=7.0))
+    with pytest.raises(ResultsError, match=r"another episode config \(termination.time_limit"):
+        run_sweep(settings, tmp_path, config=other, progress=False, figures=False)
+    with pytest.raises(ResultsError, match="one directory holds one recovery setting"):
+        run_sweep(
+            settings,
+            tmp_path,
+            config=replace(base, recovery=recovery_params("nav2")),
+            progress=False,
+        )
+    with pytest.raises(AssertionError, match="jobs built"):  # the same config resumes
+        run_sweep(settings, tmp_path, config=base, progress=False)
+    assert (tmp_path / "results.csv").read_text() == before
