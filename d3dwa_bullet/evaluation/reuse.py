@@ -314,10 +314,19 @@ def reused_lines(settings: Mapping[str, Any]) -> list[str]:
     """ "N episodes reused from DIR (K rerun to check: identical)" per source a run's
     settings record."""
     return [
-        f"{e['episodes']} episode{'' if e['episodes'] == 1 else 's'} reused from {e['from']} "
-        f"({e['checked']} rerun to check: identical)"
+        f"{e['episodes']} episode{'' if e['episodes'] == 1 else 's'} reused from "
+        f"{_shown(e['from'])} ({e['checked']} rerun to check: identical)"
         for e in settings.get(REUSED_KEY, [])
     ]
+
+
+def _shown(source: str) -> str:
+    """A recorded (absolute) DIR as a page shows it: relative to the working directory when it
+    lies under it, so a page written in a checkout names no machine's path."""
+    try:
+        return str(Path(source).relative_to(Path.cwd()))
+    except ValueError:
+        return source
 
 
 def reused_note(settings: Mapping[str, Any]) -> str:

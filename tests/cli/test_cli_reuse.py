@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from d3dwa_bullet.cli.app import main
+from d3dwa_bullet.evaluation.reuse import reused_lines
 from tests.evaluation.test_policy_runs import seed_folder
 from tests.support.cli import refused, run
 
@@ -207,3 +208,21 @@ def test_a_named_world_of_a_directory_from_before_the_digests(tmp_path, capsys):
     assert meta_settings(tmp_path / "b")["reused"][0]["episodes"] == 7 - 2
     longer = [*argv[:-4], "--time-limit", "2", "--workers", "1", "--out", tmp_path / "c", *reuse]
     assert "settings.time_limit 1.0" in refused(capsys, *longer)
+
+
+def test_a_page_names_a_reused_directory_under_the_working_directory_relatively(
+    tmp_path, monkeypatch
+):
+    monkeypatch.chdir(
+        tmp_path
+    )  # the record keeps DIR resolved; a page in a checkout names no machine
+    record = {
+        "reused": [
+            {"from": str(tmp_path / "docs" / "runs"), "episodes": 1, "checked": 2},
+            {"from": "/elsewhere/runs", "episodes": 3, "checked": 0},
+        ]
+    }
+    assert reused_lines(record) == [
+        f"1 episode reused from {Path('docs', 'runs')} (2 rerun to check: identical)",
+        "3 episodes reused from /elsewhere/runs (0 rerun to check: identical)",
+    ]
