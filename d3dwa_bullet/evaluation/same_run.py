@@ -47,14 +47,16 @@ def run_settings(settings: Mapping[str, Any] | None, recovery: str) -> dict[str,
 
 
 def check_resumable(
-    out: Path, fields: Sequence[str], config: Any, settings: Mapping[str, Any]
-) -> None:
-    """ResultsError unless out takes a run with these columns (from :func:`run_fields`),
-    episode config and settings (from :func:`run_settings`), whatever its jobs: the checks of
+    out: Path, fields: Sequence[str], config: Any, settings: Mapping[str, Any],
+    methods: Iterable[str],
+) -> None:  # fmt: skip
+    """ResultsError unless out takes a run of methods with these columns, episode config and
+    settings (as given to ``evaluate``), whatever its jobs: the checks of
     :func:`check_same_run` that need no job, with the directory's format and columns."""
-    check_results_dir(out, fields, config.recovery_name)
+    recovery = config.recovery_name
+    check_results_dir(out, run_fields(fields, recovery, methods), recovery)
     if _holds_rows(out):
-        _check_settings(out, config, settings)
+        _check_settings(out, config, run_settings(settings, recovery))
 
 
 def _holds_rows(out: Path) -> bool:

@@ -64,7 +64,7 @@ from d3dwa_bullet.evaluation.results import (
     row_key,
 )
 from d3dwa_bullet.evaluation.reuse import Reuse
-from d3dwa_bullet.evaluation.same_run import check_resumable, run_fields, run_settings
+from d3dwa_bullet.evaluation.same_run import check_resumable
 from d3dwa_bullet.evaluation.score_tables import score_condition_tables
 from d3dwa_bullet.evaluation.scores import UNSCORED_NOTE, is_scored
 from d3dwa_bullet.evaluation.seed_tables import condition_table
@@ -382,8 +382,7 @@ def run_sweep(
     meta[SETTINGS_KEY] = settings_entry(training)
     with locked_dir(out):  # one writer: the episodes, then the page and figures
         # refused (held, another time limit, ...) before minutes of generating layouts
-        fields = run_fields(SWEEP_FIELDS, config.recovery_name, settings.methods)
-        check_resumable(out, fields, config, run_settings(meta, config.recovery_name))
+        check_resumable(out, SWEEP_FIELDS, config, meta, settings.methods)
         jobs = sweep_jobs(settings, policy, progress)
         evaluate(jobs, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta, reuse)
         keys = {j.key for j in jobs}

@@ -213,9 +213,8 @@ def test_a_named_world_of_a_directory_from_before_the_digests(tmp_path, capsys):
 def test_a_page_names_a_reused_directory_under_the_working_directory_relatively(
     tmp_path, monkeypatch
 ):
-    monkeypatch.chdir(
-        tmp_path
-    )  # the record keeps DIR resolved; a page in a checkout names no machine
+    # the record keeps DIR resolved; a page written in a checkout names no machine's path
+    monkeypatch.chdir(tmp_path)
     record = {
         "reused": [
             {"from": str(tmp_path / "docs" / "runs"), "episodes": 1, "checked": 2},
