@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import functools
 import json
 import math
 import os
@@ -16,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tqdm import tqdm
 
 from d3dwa_bullet.cli.app import main
 from d3dwa_bullet.episode import EpisodeConfig
@@ -318,13 +320,14 @@ def test_the_sweep_page_scores_each_cell_and_marks_rows_from_before_the_score(
     assert "; 0.00" not in unscored and f"Score ({SCORE_FORM}), mean" not in unscored
 
 
-def test_generating_the_layouts_shows_a_bar_only_with_progress(capsys):
+def test_generating_the_layouts_shows_a_bar_only_with_progress(capsys, monkeypatch):
+    # the bar clears on close and redraws at most every 0.1 s: two fast layouts could finish unseen
+    monkeypatch.setattr(sweep, "tqdm", functools.partial(tqdm, mininterval=0))
     settings = SweepSettings(
         methods=("dwa1",), worlds=(), styles=("R1-style", "R2-style"), layouts=1
     )
     assert len(sweep_worlds(settings, progress=True)) == 2
-    # the bar opens at 0/2; whether it redraws before it clears depends on how fast the layouts build
-    assert "layouts" in (err := capsys.readouterr().err) and "0/2" in err
+    assert "layouts" in (err := capsys.readouterr().err) and "2/2" in err
     sweep_worlds(settings)
     assert capsys.readouterr().err == ""
 
