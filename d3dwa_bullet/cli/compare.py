@@ -6,8 +6,9 @@ tasks of a group; 0.5 is no difference. A learned method's runs are its training
 fixed or reference method's its evaluation seeds (:mod:`d3dwa_bullet.evaluation.seed_tables`). Groups:
 the shipped world groups (train, unseen, real) of a ``d3dwa eval`` directory, or the layout
 groups (shipped, generated, BARN's terciles) of a ``d3dwa sweep`` directory, each under its
-noise, with the unseen layouts also by generator style when there are several; then every
-layout under each noise, then all tasks.
+noise, with the unseen layouts also by generator style when there are several and BARN's worlds
+also pooled (``barn``) when the sweep holds other layouts too; then every layout under each
+noise, then all tasks.
 
 Beside each P(A > B), a test paired by layout: the one-sided Wilcoxon signed-rank p-value of
 A > B over the (layout, noise, evaluation seed) both ran, each side's success there averaged
@@ -111,17 +112,25 @@ def _groups_of(
     row: dict[str, Any],
     shipped: dict[str, str],
     style_of: Callable[[Any], str | None] | None = None,
+    barn_pooled: bool = False,
 ) -> list[str]:
     """The groups of a row, finest first. style_of: a sweep's unseen layout is also in its
-    generator style's group (a stratum), before the pooled ``generated``."""
+    generator style's group (a stratum), before the pooled ``generated``. barn_pooled: a BARN
+    world's tercile group is pooled in ``barn`` (a sweep that also holds other layouts)."""
     noise = row["noise"]
     if "layout" in row:  # a sweep's row
         style = style_of(row) if style_of else None
         finer = [f"{style} ({noise})"] if style else []
-        return [*finer, f"{row['layout']} ({noise})", f"all layouts ({noise})"]
+        pool = [f"barn ({noise})"] if barn_pooled and _is_barn_group(row["layout"]) else []
+        return [*finer, f"{row['layout']} ({noise})", *pool, f"all layouts ({noise})"]
     barn = barn_index(row["world"])  # a BARN world of an eval: its difficulty tercile
     group = shipped.get(row["world"], "custom") if barn is None else barn_tercile_group(barn)
     return [f"{group} ({noise})", f"all worlds ({noise})"]
+
+
+def _is_barn_group(layout: str) -> bool:
+    """Whether a sweep's layout group is a BARN tercile's (``barn-easy`` ...)."""
+    return layout.startswith("barn-")
 
 
 def _side(out: Path, method: str, warn: bool = True) -> tuple[list[dict[str, Any]], str, bool]:
@@ -256,7 +265,8 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
     source = f"{out / 'results.csv'}" + (f" and {other / 'results.csv'}" if args.against else "")
     absent = check_layouts(paired_scores(rows, key_a, key_b), a, b, source)
     by_style = style_of if len(styles_present(rows)) > 1 else None
-    groups_of = partial(_groups_of, shipped=world_groups(), style_of=by_style)
+    mixed = len({_is_barn_group(str(r["layout"])) for r in rows if "layout" in r}) == 2
+    groups_of = partial(_groups_of, shipped=world_groups(), style_of=by_style, barn_pooled=mixed)
     records = improvement(rows, key_a, key_b, groups_of)
     by_seed = args.pair_by == "layout-seed"
     if absent is None:

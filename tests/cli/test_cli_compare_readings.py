@@ -187,3 +187,17 @@ def test_a_sweep_of_several_styles_is_read_per_style_then_pooled(tmp_path, capsy
     assert main(["compare", str(one), "--methods", "dwa3,dwa1", "--json"]) == 0
     groups = [r["group"] for r in json.loads(capsys.readouterr().out)["groups"]]
     assert groups == ["generated (real)", "all"]  # one style: its stratum is the pool
+
+
+def test_a_sweep_of_barn_and_generated_layouts_pools_barn_beside_generated(tmp_path, capsys):
+    barn = [(w, barn_tercile_group(barn_index(w))) for w in ("BARN-0", "BARN-6", "BARN-12")]
+    generated = [(f"R1-style-s{k}", "generated") for k in (1, 2)]
+    out = sweep_dir(tmp_path / "mixed", barn + generated)
+    assert main(["compare", str(out), "--methods", "dwa3,dwa1", "--json"]) == 0
+    records = {r["group"]: r for r in json.loads(capsys.readouterr().out)["groups"]}
+    assert records["barn (real)"]["tasks"] == 3 and records["generated (real)"]["tasks"] == 2
+    assert records["barn (real)"]["readings"]["success"]["layouts"] == 3
+    only = sweep_dir(tmp_path / "barn", barn)  # BARN alone: its pool is "all layouts"
+    assert main(["compare", str(only), "--methods", "dwa3,dwa1", "--json"]) == 0
+    groups = [r["group"] for r in json.loads(capsys.readouterr().out)["groups"]]
+    assert "barn (real)" not in groups and groups[-1] == "all"

@@ -117,3 +117,35 @@ def test_the_plans_cells_are_the_committed_pages() -> None:
                 named = word is not None or method_label(m).split(" (")[0] in page
                 assert m == plan_readings.BEST_FIXED or named, (name, m)
     assert plan_readings.PLANS["yardstick"].margins["success"] == 0.05
+
+
+def test_strata_read_each_barn_tercile_and_style_beside_the_pooled_cell(tmp_path, capsys) -> None:
+    worlds = [(f"BARN-{6 * k}", "") for k in range(6)] + [
+        (f"R1-style-s{k}", "generated") for k in range(6)
+    ]
+    rows = []
+    for k, (w, layout) in enumerate(worlds):
+        layout = layout or "barn-easy"  # a BARN world's tercile group
+        for m, score in (("d3dwa", 0.5 + 0.01 * (k % 3) + 0.2 * (k >= 6)), ("dwa1", 0.5)):
+            rows.append(dict(world=w, method=m, policy_seed=0 if m == "d3dwa" else "", seed=0,
+                             noise="none", outcome="goal", score=score, score_barn=0.1,
+                             layout=layout))  # fmt: skip
+    out = tmp_path / "r"
+    write_results(out, ((r, {}) for r in rows))
+    keys = [list(row_key(r)) for r in job_rows(out)]
+    (out / "meta.json").write_text(json.dumps({"format": 4, "settings": {}, "jobs": keys}))
+    argv = [str(out), "--pair", "d3dwa,dwa1", "--strata"]
+    assert plan_readings.main([*argv, "--json"]) == 0
+    (record,) = json.loads(capsys.readouterr().out)
+    assert list(record["strata"]) == ["barn-easy", "barn", "R1-style", "generated"]
+    generated = [r for r in job_rows(out) if r["layout"] == "generated"]
+    expected = reading_of(
+        paired_scores(generated, "d3dwa", "dwa1", by_seed=False, metric="score"), 0.03
+    )
+    got = record["strata"]["R1-style"]["score"]
+    assert got["layouts"] == 6 and got["difference"] == pytest.approx(expected["difference"])
+    assert record["strata"]["barn"]["score"]["difference"] == pytest.approx(0.01)
+    assert plan_readings.main(argv) == 0
+    page = capsys.readouterr().out
+    assert "| `d3dwa` vs `dwa1` | pooled | **A** +0.110 |" in page
+    assert "| `d3dwa` vs `dwa1` | generated | **A** +0.210 |" in page

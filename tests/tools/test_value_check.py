@@ -125,3 +125,18 @@ def test_validation_with_an_unknown_eval_world_refuses_before_any_progress(
     assert value_check.main([str(tmp_path), "--worlds", value_check.VALIDATION]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "NOWHERE" in err, err
+
+
+def test_a_long_list_of_worlds_keeps_the_page_width() -> None:
+    worlds = [f"BARN-{k}" for k in range(0, 60, 6)]
+    result = {
+        "directory": "policies/d3dwa-weights",
+        "worlds": worlds,
+        "seeds": [],
+        "agreement": None,
+    }
+    text = value_check.describe(result)
+    assert all(len(line) <= 120 for line in text.splitlines())
+    assert " ".join(text.split()).startswith(
+        f"policies/d3dwa-weights: greedy episodes on {', '.join(worlds)}"
+    )

@@ -19,6 +19,12 @@ directory, as the BARN-trained plan defines it. The table names which one it was
     python -m tools.experiments.plan_readings runs/barn-trained/challenge --plan barn-trained
     python -m tools.experiments.plan_readings runs/yardstick-barn --plan yardstick --json
 
+``--strata`` reads each cell also per stratum fixed before the run: a BARN world's difficulty
+tercile (``barn-easy`` ...) and BARN pooled (``barn``), a generated layout's style (``R1-style``
+...) and the styles pooled (``generated``); it prints the brief tables with a line per (cell,
+stratum), or with ``--json`` adds each record's ``strata``. The plan's answer stays the pooled
+cell; a stratum is a finer look with fewer layouts.
+
 ``--brief`` prints two tables instead, the robot score's and success's, one line per cell and a
 column per profile: the reading and A - B (success in points; **A**: A better, **B**: B better,
 "eq.": equivalent within the margin, "inc.": inconclusive), as docs/results.md quotes them.
@@ -27,7 +33,7 @@ column per profile: the reading and A - B (success in points; **A**: A better, *
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from statistics import fmean
@@ -40,7 +46,9 @@ from d3dwa_bullet.evaluation.page_width import fit_prose, split_columns
 from d3dwa_bullet.evaluation.paired import Unit, metric_value
 from d3dwa_bullet.evaluation.readings import metric_text, readings_by_group, readings_table
 from d3dwa_bullet.evaluation.results import completion
+from d3dwa_bullet.evaluation.style_tables import style_of
 from d3dwa_bullet.method_specs import FIXED
+from d3dwa_bullet.world.barn_difficulty import TERCILES
 from tools.entry import ToolParser, tool_main
 
 BEST_FIXED = "best-fixed"
@@ -124,12 +132,34 @@ def best_fixed(rows: Rows) -> dict[str, tuple[str, float]]:
     return out
 
 
+def strata_of(row: Mapping[str, Any]) -> list[str]:
+    """The strata of a sweep's row, finest first: a BARN world's tercile group and ``barn``, a
+    generated layout's style and ``generated``; none for any other row."""
+    layout = str(row.get("layout", ""))
+    if layout.startswith("barn-"):
+        return [layout, "barn"]
+    style = style_of(row)
+    return [style, "generated"] if style else []
+
+
+def _stratum_order(name: str) -> tuple[int, int, str]:
+    """BARN's terciles (easiest first), BARN pooled, the styles, the styles pooled."""
+    if name.startswith("barn-"):
+        tercile = name.removeprefix("barn-")
+        return (0, TERCILES.index(tercile) if tercile in TERCILES else len(TERCILES), name)
+    return (1, 0, name) if name == "barn" else (3, 0, name) if name == "generated" else (2, 0, name)
+
+
 def read_cells(
-    rows: Rows, pairs: Sequence[tuple[str, str]], margins: Mapping[str, float]
+    rows: Rows,
+    pairs: Sequence[tuple[str, str]],
+    margins: Mapping[str, float],
+    strata: Callable[[Mapping[str, Any]], Sequence[str]] | None = None,
 ) -> list[dict[str, Any]]:
     """One record per (cell, profile): {"a", "b", "profile", "readings": {metric: reading}}
-    (``readings_by_group``'s records, the profile the group). ResultsError naming a method of a
-    cell the rows lack."""
+    (``readings_by_group``'s records, the profile the group); with strata (a row's strata),
+    also "strata": {stratum: {metric: reading}}. ResultsError naming a method of a cell the
+    rows lack."""
     present = {r["method"] for r in rows}
     for name in dict.fromkeys(m for pair in pairs for m in pair):  # the cells' order
         if name != BEST_FIXED and name not in present:
@@ -142,11 +172,17 @@ def read_cells(
         for profile in dict.fromkeys(r["noise"] for r in rows):
             other = best[profile][0] if b == BEST_FIXED else b
             here = [r for r in rows if r["noise"] == profile and r["method"] in (a, other)]
-            groups: dict[Unit, list[str]] = {(r["world"], profile, None): [profile] for r in here}
-            readings = readings_by_group(here, a, other, groups, margins).get(profile)
+            groups: dict[Unit, list[str]] = {
+                (r["world"], profile, None): [profile, *(strata(r) if strata else ())] for r in here
+            }
+            by_group = readings_by_group(here, a, other, groups, margins)
+            readings = by_group.get(profile)
             if readings is None:  # no layout both sides ran under this profile
                 continue
             record = {"a": a, "b": other, "profile": profile, "readings": readings}
+            if strata:
+                names = sorted(set(by_group) - {profile, "all"}, key=_stratum_order)
+                record["strata"] = {name: by_group[name] for name in names}
             if b == BEST_FIXED:
                 record["best_fixed_score"] = best[profile][1]
             out.append(record)
@@ -212,6 +248,32 @@ def brief(records: Sequence[Mapping[str, Any]], margins: Mapping[str, float]) ->
     return "\n".join(parts) + f"\n{fit_prose(legend)}\n"
 
 
+def strata_brief(records: Sequence[Mapping[str, Any]], margins: Mapping[str, float]) -> str:
+    """As :func:`brief`, with a line per (cell, stratum) after each cell's pooled line."""
+    profiles = list(dict.fromkeys(r["profile"] for r in records))
+    cells: dict[str, dict[str, dict[str, Mapping[str, Any]]]] = {}
+    for r in records:
+        b = "best fixed" if "best_fixed_score" in r else f"`{r['b']}`"
+        per = cells.setdefault(f"`{r['a']}` vs {b}", {})
+        per.setdefault("pooled", {})[r["profile"]] = r["readings"]
+        for name, readings in r.get("strata", {}).items():
+            per.setdefault(name, {})[r["profile"]] = readings
+    parts = []
+    for metric, title in _BRIEF.items():
+        unit = " in points" if metric == "success" else ""
+        body = [[cell, name, *(_brief_reading(metric, by.get(p, {}).get(metric)) for p in profiles)]
+                for cell, per in cells.items() for name, by in per.items()]  # fmt: skip
+        table = split_columns(["A vs B", "stratum", *profiles], ["---"] * (2 + len(profiles)), body)
+        within = margin_text(metric, margins[metric])
+        parts.append(
+            f"{title} (margin {within}) by stratum, the reading and A - B{unit}:\n\n{table}"
+        )
+    legend = ("**A**: A better, **B**: B better, eq.: equivalent within the margin, inc.: "
+              "inconclusive; the intervals, p-values and layouts that would decide, per stratum: "
+              "`d3dwa compare DIR --methods A,B`.")  # fmt: skip
+    return "\n".join(parts) + f"\n{fit_prose(legend)}\n"
+
+
 @tool_main
 def main(argv: Sequence[str] | None = None) -> int:
     parser = ToolParser(prog="plan_readings", description=__doc__.split("\n")[0])
@@ -227,6 +289,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     out = parser.add_mutually_exclusive_group()
     out.add_argument("--json", action="store_true")
     out.add_argument("--brief", action="store_true", help="one line per cell (see above)")
+    parser.add_argument("--strata", action="store_true",
+                        help="also per stratum: BARN's terciles and styles (see above)")  # fmt: skip
     args = parser.parse_args(argv)
     if bool(args.plan) == bool(args.pair):
         parser.error("give either --plan or --pair")
@@ -244,9 +308,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                 parser.error(f"--pair needs two different methods A,B, got {text!r}")
             pairs.append((names[0], names[1]))
         margins = {m: MARGINS[m] if v is None else check_margin(v, m) for m, v in given.items()}
-    records = read_cells(finished_rows(args.results), pairs, margins)
+    records = read_cells(
+        finished_rows(args.results), pairs, margins, strata_of if args.strata else None
+    )
     if args.json:
         print(json.dumps(records, indent=1))
+    elif args.strata:
+        print(strata_brief(records, margins), end="")
     else:
         print(brief(records, margins) if args.brief else markdown(records, name), end="")
     return 0

@@ -31,6 +31,7 @@ import numpy as np
 from gymnasium.spaces import Discrete
 
 from d3dwa_bullet.errors import ConfigError, D3DWAError
+from d3dwa_bullet.evaluation.page_width import fit_prose
 from d3dwa_bullet.learning.agents.checkpoint import META_FILE, load_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
@@ -209,8 +210,10 @@ def _acting(result: dict[str, Any]) -> str:
 
 def describe(result: dict[str, Any]) -> str:
     lines = [
-        f"{result['directory']}: {_acting(result)} episodes on {', '.join(result['worlds'])}, "
-        "no noise",
+        fit_prose(
+            f"{result['directory']}: {_acting(result)} episodes on {', '.join(result['worlds'])}, "
+            "no noise"
+        ),
         "| policy | gamma | goals | mean Q | discounted return | ratio | gap | tracks? "
         "| best - 2nd best Q (median) |",
         "|---|---:|---:|---:|---:|---:|---:|---|---:|",
