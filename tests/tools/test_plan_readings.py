@@ -149,3 +149,22 @@ def test_strata_read_each_barn_tercile_and_style_beside_the_pooled_cell(tmp_path
     page = capsys.readouterr().out
     assert "| `d3dwa` vs `dwa1` | pooled | **A** +0.110 |" in page
     assert "| `d3dwa` vs `dwa1` | generated | **A** +0.210 |" in page
+    png = tmp_path / "barn.png"
+    assert plan_readings.main([*argv, "--figure", str(png), "--figure-stratum", "barn"]) == 0
+    assert png.read_bytes().startswith(b"\x89PNG")
+
+
+def test_the_figure_is_drawn_pooled_or_for_a_stratum_and_an_unknown_stratum_is_one_line(
+    tmp_path, capsys
+) -> None:
+    out = directory(tmp_path / "r")
+    png = tmp_path / "fig" / "readings.png"
+    argv = [str(out), "--pair", "d3dwa,dwa1", "--brief", "--figure", str(png)]
+    assert plan_readings.main(argv) == 0
+    assert png.read_bytes().startswith(b"\x89PNG") and "Robot score" in capsys.readouterr().out
+    assert plan_readings.main([*argv, "--figure-stratum", "barn"]) == 2
+    err = capsys.readouterr().err
+    assert "--figure-stratum 'barn': no such stratum here (present: none)" in err
+    assert len(err.strip().splitlines()) == 1
+    assert plan_readings.main([str(out), "--pair", "d3dwa,dwa1", "--figure-stratum", "barn"]) == 2
+    assert "--figure-stratum needs --figure" in capsys.readouterr().err

@@ -25,6 +25,10 @@ tercile (``barn-easy`` ...) and BARN pooled (``barn``), a generated layout's sty
 stratum), or with ``--json`` adds each record's ``strata``. The plan's answer stays the pooled
 cell; a stratum is a finer look with fewer layouts.
 
+``--figure PATH`` also draws the cells' A - B with their intervals against the margins
+(tools/experiments/readings_figure.py), whatever the text printed; ``--figure-stratum NAME``
+draws that stratum's readings instead of the pooled cells (``barn``: BARN's worlds alone).
+
 ``--brief`` prints two tables instead, the robot score's and success's, one line per cell and a
 column per profile: the reading and A - B (success in points; **A**: A better, **B**: B better,
 "eq.": equivalent within the margin, "inc.": inconclusive), as docs/results.md quotes them.
@@ -289,6 +293,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     out = parser.add_mutually_exclusive_group()
     out.add_argument("--json", action="store_true")
     out.add_argument("--brief", action="store_true", help="one line per cell (see above)")
+    parser.add_argument("--figure", type=Path, metavar="PNG",
+                        help="also draw each cell's A - B and interval against its margin")  # fmt: skip
+    parser.add_argument("--figure-stratum", metavar="NAME",
+                        help="the figure draws this stratum (e.g. barn) instead of the pool")  # fmt: skip
     parser.add_argument("--strata", action="store_true",
                         help="also per stratum: BARN's terciles and styles (see above)")  # fmt: skip
     args = parser.parse_args(argv)
@@ -308,9 +316,21 @@ def main(argv: Sequence[str] | None = None) -> int:
                 parser.error(f"--pair needs two different methods A,B, got {text!r}")
             pairs.append((names[0], names[1]))
         margins = {m: MARGINS[m] if v is None else check_margin(v, m) for m, v in given.items()}
-    records = read_cells(
-        finished_rows(args.results), pairs, margins, strata_of if args.strata else None
-    )
+    if args.figure_stratum and not args.figure:
+        parser.error("--figure-stratum needs --figure")
+    strata = strata_of if args.strata or args.figure_stratum else None
+    records = read_cells(finished_rows(args.results), pairs, margins, strata)
+    if args.figure:
+        from tools.experiments.readings_figure import draw
+
+        where = args.figure_stratum
+        present = sorted({s for r in records for s in r.get("strata", {})}, key=_stratum_order)
+        if where is not None and where not in present:
+            raise ResultsError(f"--figure-stratum {where!r}: no such stratum here (present: "
+                               f"{', '.join(present) or 'none'})")  # fmt: skip
+        of = f" on {where}" if where else ""
+        title = f"Readings of {name}{of}: A - B, 95 % interval, margin shaded"
+        draw(records, args.figure, title, where)
     if args.json:
         print(json.dumps(records, indent=1))
     elif args.strata:
