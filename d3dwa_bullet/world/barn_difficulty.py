@@ -146,3 +146,8 @@ def barn_tercile(index: int) -> str:
 def barn_tercile_group(index: int) -> str:
     """The layout group tables show a BARN world's rows under: ``barn-<tercile>``."""
     return f"barn-{barn_tercile(index)}"
+
+
+def is_barn_tercile_group(name: str) -> bool:
+    """Whether a layout group is one :func:`barn_tercile_group` names."""
+    return name in {f"barn-{t}" for t in TERCILES}

@@ -52,7 +52,7 @@ from d3dwa_bullet.evaluation.readings import metric_text, readings_by_group, rea
 from d3dwa_bullet.evaluation.results import completion
 from d3dwa_bullet.evaluation.style_tables import style_of
 from d3dwa_bullet.method_specs import FIXED
-from d3dwa_bullet.world.barn_difficulty import TERCILES
+from d3dwa_bullet.world.barn_difficulty import TERCILES, is_barn_tercile_group
 from tools.entry import ToolParser, tool_main
 
 BEST_FIXED = "best-fixed"
@@ -140,7 +140,7 @@ def strata_of(row: Mapping[str, Any]) -> list[str]:
     """The strata of a sweep's row, finest first: a BARN world's tercile group and ``barn``, a
     generated layout's style and ``generated``; none for any other row."""
     layout = str(row.get("layout", ""))
-    if layout.startswith("barn-"):
+    if is_barn_tercile_group(layout):
         return [layout, "barn"]
     style = style_of(row)
     return [style, "generated"] if style else []
@@ -148,9 +148,8 @@ def strata_of(row: Mapping[str, Any]) -> list[str]:
 
 def _stratum_order(name: str) -> tuple[int, int, str]:
     """BARN's terciles (easiest first), BARN pooled, the styles, the styles pooled."""
-    if name.startswith("barn-"):
-        tercile = name.removeprefix("barn-")
-        return (0, TERCILES.index(tercile) if tercile in TERCILES else len(TERCILES), name)
+    if is_barn_tercile_group(name):
+        return (0, TERCILES.index(name.removeprefix("barn-")), name)
     return (1, 0, name) if name == "barn" else (3, 0, name) if name == "generated" else (2, 0, name)
 
 
