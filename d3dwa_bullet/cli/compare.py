@@ -57,7 +57,7 @@ from d3dwa_bullet.evaluation.margins import (
 )
 from d3dwa_bullet.learning.agents.barn_record import BarnTraining
 from d3dwa_bullet.world.barn import barn_index
-from d3dwa_bullet.world.barn_difficulty import barn_tercile_group, is_barn_tercile_group
+from d3dwa_bullet.world.barn_difficulty import TERCILE_GROUPS, barn_tercile_group
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -121,7 +121,7 @@ def _groups_of(
     if "layout" in row:  # a sweep's row
         style = style_of(row) if style_of else None
         finer = [f"{style} ({noise})"] if style else []
-        pool = [f"barn ({noise})"] if barn_pooled and is_barn_tercile_group(row["layout"]) else []
+        pool = [f"barn ({noise})"] if barn_pooled and row["layout"] in TERCILE_GROUPS else []
         return [*finer, f"{row['layout']} ({noise})", *pool, f"all layouts ({noise})"]
     barn = barn_index(row["world"])  # a BARN world of an eval: its difficulty tercile
     group = shipped.get(row["world"], "custom") if barn is None else barn_tercile_group(barn)
@@ -260,7 +260,7 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
     source = f"{out / 'results.csv'}" + (f" and {other / 'results.csv'}" if args.against else "")
     absent = check_layouts(paired_scores(rows, key_a, key_b), a, b, source)
     by_style = style_of if len(styles_present(rows)) > 1 else None
-    mixed = len({is_barn_tercile_group(str(r["layout"])) for r in rows if "layout" in r}) == 2
+    mixed = len({r["layout"] in TERCILE_GROUPS for r in rows if "layout" in r}) == 2
     groups_of = partial(_groups_of, shipped=world_groups(), style_of=by_style, barn_pooled=mixed)
     records = improvement(rows, key_a, key_b, groups_of)
     by_seed = args.pair_by == "layout-seed"

@@ -13,12 +13,12 @@ from typing import Any
 
 from d3dwa_bullet.evaluation.seed_tables import condition_table
 from d3dwa_bullet.world.barn import SPLIT_GROUPS, barn_index, barn_split
-from d3dwa_bullet.world.barn_difficulty import TERCILE_MEASURE, TERCILES, barn_tercile_group
+from d3dwa_bullet.world.barn_difficulty import TERCILE_GROUPS, TERCILE_MEASURE, barn_tercile_group
 
 Row = Mapping[str, Any]
 SPLIT_ORDER = tuple(SPLIT_GROUPS.values())
 """Split groups in table order: challenge, train."""
-TERCILE_ORDER = tuple(f"barn-{t}" for t in TERCILES)
+TERCILE_ORDER = TERCILE_GROUPS
 """Tercile groups in table order: easy, middle, hard."""
 
 

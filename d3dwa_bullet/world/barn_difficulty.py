@@ -50,6 +50,8 @@ TERCILE_MEASURE = "clearance_mean"
 """The measure the terciles rank by (more clearance = easier)."""
 TERCILES = ("easy", "middle", "hard")
 """Tercile names, easiest first."""
+TERCILE_GROUPS = tuple(f"barn-{t}" for t in TERCILES)
+"""The layout groups of :func:`barn_tercile_group`, easiest first (the tables' order)."""
 CELL = CELL_MM / 1000.0
 
 
@@ -146,8 +148,3 @@ def barn_tercile(index: int) -> str:
 def barn_tercile_group(index: int) -> str:
     """The layout group tables show a BARN world's rows under: ``barn-<tercile>``."""
     return f"barn-{barn_tercile(index)}"
-
-
-def is_barn_tercile_group(name: str) -> bool:
-    """Whether a layout group is one :func:`barn_tercile_group` names."""
-    return name in {f"barn-{t}" for t in TERCILES}

@@ -52,7 +52,7 @@ from d3dwa_bullet.evaluation.readings import metric_text, readings_by_group, rea
 from d3dwa_bullet.evaluation.results import completion
 from d3dwa_bullet.evaluation.style_tables import style_of
 from d3dwa_bullet.method_specs import FIXED
-from d3dwa_bullet.world.barn_difficulty import TERCILES, is_barn_tercile_group
+from d3dwa_bullet.world.barn_difficulty import TERCILE_GROUPS
 from tools.entry import ToolParser, tool_main
 
 BEST_FIXED = "best-fixed"
@@ -140,7 +140,7 @@ def strata_of(row: Mapping[str, Any]) -> list[str]:
     """The strata of a sweep's row, finest first: a BARN world's tercile group and ``barn``, a
     generated layout's style and ``generated``; none for any other row."""
     layout = str(row.get("layout", ""))
-    if is_barn_tercile_group(layout):
+    if layout in TERCILE_GROUPS:
         return [layout, "barn"]
     style = style_of(row)
     return [style, "generated"] if style else []
@@ -148,8 +148,8 @@ def strata_of(row: Mapping[str, Any]) -> list[str]:
 
 def _stratum_order(name: str) -> tuple[int, int, str]:
     """BARN's terciles (easiest first), BARN pooled, the styles, the styles pooled."""
-    if is_barn_tercile_group(name):
-        return (0, TERCILES.index(name.removeprefix("barn-")), name)
+    if name in TERCILE_GROUPS:
+        return (0, TERCILE_GROUPS.index(name), name)
     return (1, 0, name) if name == "barn" else (3, 0, name) if name == "generated" else (2, 0, name)
 
 
@@ -229,51 +229,34 @@ def _brief_reading(metric: str, record: Mapping[str, Any] | None) -> str:
     return f"{_SHORT[record['reading']]} {metric_text(metric, diff, signed=True)}"
 
 
-def brief(records: Sequence[Mapping[str, Any]], margins: Mapping[str, float]) -> str:
+def brief(
+    records: Sequence[Mapping[str, Any]], margins: Mapping[str, float], strata: bool = False
+) -> str:
     """For the robot score, then success: a Markdown table with one line per cell (A vs B;
-    "best fixed" where B stands for it) and a column per profile, each the reading and A - B."""
+    "best fixed" where B stands for it) and a column per profile, each the reading and A - B;
+    with strata, a stratum column and a line per (cell, stratum) after each cell's pooled line."""
     profiles = list(dict.fromkeys(r["profile"] for r in records))
-    cells: dict[str, dict[str, Mapping[str, Any]]] = {}
+    lines: dict[tuple[str, ...], dict[str, Mapping[str, Any]]] = {}
     for r in records:
         b = "best fixed" if "best_fixed_score" in r else f"`{r['b']}`"
-        cells.setdefault(f"`{r['a']}` vs {b}", {})[r["profile"]] = r["readings"]
+        cell = f"`{r['a']}` vs {b}"
+        lines.setdefault((cell, "pooled") if strata else (cell,), {})[r["profile"]] = r["readings"]
+        for name, readings in r.get("strata", {}).items() if strata else ():
+            lines.setdefault((cell, name), {})[r["profile"]] = readings
+    head = ["A vs B", *(["stratum"] if strata else []), *profiles]
     parts = []
     for metric, title in _BRIEF.items():
         unit = " in points" if metric == "success" else ""
-        body = [[cell, *(_brief_reading(metric, per.get(p, {}).get(metric)) for p in profiles)]
-                for cell, per in cells.items()]  # fmt: skip
-        table = split_columns(["A vs B", *profiles], ["---"] * (1 + len(profiles)), body)
+        body = [[*line, *(_brief_reading(metric, per.get(p, {}).get(metric)) for p in profiles)]
+                for line, per in lines.items()]  # fmt: skip
+        table = split_columns(head, ["---"] * len(head), body)
         within = margin_text(metric, margins[metric])
-        parts.append(f"{title} (margin {within}), the reading and A - B{unit}:\n\n{table}")
+        by = " by stratum" if strata else ""
+        parts.append(f"{title} (margin {within}){by}, the reading and A - B{unit}:\n\n{table}")
+    where = (", per stratum: `d3dwa compare DIR --methods A,B`." if strata
+             else ": without --brief.")  # fmt: skip
     legend = ("**A**: A better, **B**: B better, eq.: equivalent within the margin, inc.: "
-              "inconclusive; the intervals, p-values and layouts that would decide: "
-              "without --brief.")  # fmt: skip
-    return "\n".join(parts) + f"\n{fit_prose(legend)}\n"
-
-
-def strata_brief(records: Sequence[Mapping[str, Any]], margins: Mapping[str, float]) -> str:
-    """As :func:`brief`, with a line per (cell, stratum) after each cell's pooled line."""
-    profiles = list(dict.fromkeys(r["profile"] for r in records))
-    cells: dict[str, dict[str, dict[str, Mapping[str, Any]]]] = {}
-    for r in records:
-        b = "best fixed" if "best_fixed_score" in r else f"`{r['b']}`"
-        per = cells.setdefault(f"`{r['a']}` vs {b}", {})
-        per.setdefault("pooled", {})[r["profile"]] = r["readings"]
-        for name, readings in r.get("strata", {}).items():
-            per.setdefault(name, {})[r["profile"]] = readings
-    parts = []
-    for metric, title in _BRIEF.items():
-        unit = " in points" if metric == "success" else ""
-        body = [[cell, name, *(_brief_reading(metric, by.get(p, {}).get(metric)) for p in profiles)]
-                for cell, per in cells.items() for name, by in per.items()]  # fmt: skip
-        table = split_columns(["A vs B", "stratum", *profiles], ["---"] * (2 + len(profiles)), body)
-        within = margin_text(metric, margins[metric])
-        parts.append(
-            f"{title} (margin {within}) by stratum, the reading and A - B{unit}:\n\n{table}"
-        )
-    legend = ("**A**: A better, **B**: B better, eq.: equivalent within the margin, inc.: "
-              "inconclusive; the intervals, p-values and layouts that would decide, per stratum: "
-              "`d3dwa compare DIR --methods A,B`.")  # fmt: skip
+              f"inconclusive; the intervals, p-values and layouts that would decide{where}")  # fmt: skip
     return "\n".join(parts) + f"\n{fit_prose(legend)}\n"
 
 
@@ -333,7 +316,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.json:
         print(json.dumps(records, indent=1))
     elif args.strata:
-        print(strata_brief(records, margins), end="")
+        print(brief(records, margins, strata=True), end="")
     else:
         print(brief(records, margins) if args.brief else markdown(records, name), end="")
     return 0
