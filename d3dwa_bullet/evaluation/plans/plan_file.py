@@ -1,0 +1,221 @@
+"""A sequential plan, as a YAML file: one format, one loader (:func:`load_plan`), one checker.
+
+A plan fixes before its first episode (docs/design/sequential-plans.md):
+
+- ``name``: what the plan is called;
+- ``order_seed``: the seed of the layouts' order (:mod:`~d3dwa_bullet.evaluation.plans.order`);
+- ``alpha``: the level, in (0, 0.5): the difference test spends alpha / 2 each way, each of
+  TOST's two one-sided tests spends alpha;
+- ``spending``: the alpha-spending function, ``lan-demets-obrien-fleming``;
+- ``headline``: the metric whose reading stops a cell (one of ``paired.METRICS``);
+- ``margins``: {metric: margin}, each a positive finite number in the metric's units (success
+  as a fraction: 0.05 is 5 points), at most 1; the headline's margin is required;
+- ``profiles``: the noise profiles, each cell read under each;
+- ``families``: {name: {strata: [...], looks: [...], maximum: N}}: the world families read
+  apart, each with its strata (interleaved in the order), its looks (increasing layout counts)
+  and its maximum (the last look, appended when the looks stop short of it);
+- ``cells``: [{a, b, question}]: the pairs A, B and what each reads: ``policies`` (the
+  training seeds fixed) or ``recipe`` (the training seed a random effect).
+
+Bad input is a ConfigError of one line naming the file, the field and the value: a missing or
+unknown field, a margin not a positive finite number, an alpha outside (0, 0.5), looks that do
+not increase, a maximum below the first look (or a look beyond it).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.evaluation.paired import METRICS
+from d3dwa_bullet.io import read_text
+from d3dwa_bullet.limits import MAX_DOCUMENT_BYTES
+from d3dwa_bullet.loading import parse_yaml
+
+QUESTIONS = ("policies", "recipe")
+"""What a cell reads: these policies (seeds fixed) or the recipe (the seed a random effect)."""
+SPENDING = ("lan-demets-obrien-fleming",)
+"""The alpha-spending functions a plan may name."""
+FIELDS = ("name", "order_seed", "alpha", "spending", "headline", "margins", "profiles",
+          "families", "cells")  # fmt: skip
+FAMILY_FIELDS = ("strata", "looks", "maximum")
+CELL_FIELDS = ("a", "b", "question")
+
+
+@dataclass(frozen=True)
+class Family:
+    """A world family: its strata (names, in the order's interleaving), its looks (layout
+    counts, strictly increasing, the last the maximum)."""
+
+    name: str
+    strata: tuple[str, ...]
+    looks: tuple[int, ...]
+
+    @property
+    def maximum(self) -> int:
+        return self.looks[-1]
+
+    @property
+    def fractions(self) -> tuple[float, ...]:
+        """The information fraction at each look: its layouts over the maximum."""
+        return tuple(n / self.maximum for n in self.looks)
+
+
+@dataclass(frozen=True)
+class Cell:
+    """A pair A, B and the question its reading answers (one of :data:`QUESTIONS`)."""
+
+    a: str
+    b: str
+    question: str
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A checked plan file (see the module's docstring); digest: sha256 of its text."""
+
+    name: str
+    order_seed: int
+    alpha: float
+    spending: str
+    headline: str
+    margins: Mapping[str, float]
+    profiles: tuple[str, ...]
+    families: tuple[Family, ...]
+    cells: tuple[Cell, ...]
+    digest: str
+
+    @property
+    def methods(self) -> tuple[str, ...]:
+        """Every method a cell names, in the cells' order."""
+        return tuple(dict.fromkeys(m for c in self.cells for m in (c.a, c.b)))
+
+
+def _fields(value: Any, names: Sequence[str], where: str) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"{where}: must be a mapping of {', '.join(names)}, got {value!r}")
+    unknown = [k for k in value if k not in names]
+    if unknown:
+        raise ConfigError(f"{where}: unknown field {unknown[0]!r} (fields: {', '.join(names)})")
+    missing = [k for k in names if k not in value]
+    if missing:
+        raise ConfigError(f"{where}: missing field {missing[0]!r}")
+    return value
+
+
+def _name(value: Any, where: str) -> str:
+    if not isinstance(value, str) or not value.strip():
+        raise ConfigError(f"{where}: must be a non-empty name, got {value!r}")
+    return value.strip()
+
+
+def _names(value: Any, where: str) -> tuple[str, ...]:
+    if not isinstance(value, list) or not value:
+        raise ConfigError(f"{where}: must be a non-empty list of names, got {value!r}")
+    names = tuple(_name(v, f"{where}[{i}]") for i, v in enumerate(value))
+    if len(set(names)) != len(names):
+        raise ConfigError(f"{where}: names a value twice: {list(names)!r}")
+    return names
+
+
+def _count(value: Any, where: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ConfigError(f"{where}: must be a whole number of layouts >= 1, got {value!r}")
+    return value
+
+
+def _family(name: str, value: Any, where: str) -> Family:
+    f = _fields(value, FAMILY_FIELDS, where)
+    if not isinstance(f["looks"], list) or not f["looks"]:
+        raise ConfigError(
+            f"{where}.looks: must be a non-empty list of layout counts, got {f['looks']!r}"
+        )
+    looks = [_count(v, f"{where}.looks[{i}]") for i, v in enumerate(f["looks"])]
+    for i in range(1, len(looks)):
+        if looks[i] <= looks[i - 1]:
+            raise ConfigError(f"{where}.looks: must increase, got {looks[i]} after {looks[i - 1]}")
+    maximum = _count(f["maximum"], f"{where}.maximum")
+    if maximum < looks[0]:
+        raise ConfigError(f"{where}.maximum: {maximum} is below the first look ({looks[0]})")
+    if looks[-1] > maximum:
+        raise ConfigError(f"{where}.looks: {looks[-1]} is beyond the maximum ({maximum})")
+    if looks[-1] < maximum:
+        looks.append(maximum)
+    return Family(name, _names(f["strata"], f"{where}.strata"), tuple(looks))
+
+
+def _margin(metric: str, value: Any, where: str) -> float:
+    if metric not in METRICS:
+        raise ConfigError(f"{where}: unknown metric {metric!r} (one of {', '.join(METRICS)})")
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not (ok and math.isfinite(value) and 0 < value <= 1):
+        raise ConfigError(
+            f"{where}.{metric}: must be a positive finite number up to 1 (the metric's units), got {value!r}"
+        )
+    return float(value)
+
+
+def check_plan(data: Any, source: str, digest: str = "") -> Plan:
+    """The :class:`Plan` of a parsed plan file (source names it in errors); ConfigError of
+    one line naming the field and value otherwise."""
+    d = _fields(data, FIELDS, source)
+    seed = d["order_seed"]
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ConfigError(f"{source}: order_seed must be a whole number >= 0, got {seed!r}")
+    alpha = d["alpha"]
+    ok = isinstance(alpha, (int, float)) and not isinstance(alpha, bool)
+    if not (ok and 0 < alpha < 0.5):
+        raise ConfigError(f"{source}: alpha must be a number in (0, 0.5), got {alpha!r}")
+    if d["spending"] not in SPENDING:
+        raise ConfigError(
+            f"{source}: spending must be one of {', '.join(SPENDING)}, got {d['spending']!r}"
+        )
+    if d["headline"] not in METRICS:
+        raise ConfigError(
+            f"{source}: headline must be one of {', '.join(METRICS)}, got {d['headline']!r}"
+        )
+    if not isinstance(d["margins"], Mapping):
+        raise ConfigError(
+            f"{source}: margins must be a mapping metric: margin, got {d['margins']!r}"
+        )
+    margins = {str(m): _margin(str(m), v, f"{source}: margins") for m, v in d["margins"].items()}
+    if d["headline"] not in margins:
+        raise ConfigError(f"{source}: margins: missing the headline metric {d['headline']!r}")
+    if not isinstance(d["families"], Mapping) or not d["families"]:
+        raise ConfigError(f"{source}: families must be a non-empty mapping, got {d['families']!r}")
+    families = tuple(_family(_name(k, f"{source}: families"), v, f"{source}: families.{k}")
+                     for k, v in d["families"].items())  # fmt: skip
+    if not isinstance(d["cells"], list) or not d["cells"]:
+        raise ConfigError(
+            f"{source}: cells must be a non-empty list of {{a, b, question}}, got {d['cells']!r}"
+        )
+    cells = []
+    for i, value in enumerate(d["cells"]):
+        where = f"{source}: cells[{i}]"
+        c = _fields(value, CELL_FIELDS, where)
+        a, b = _name(c["a"], f"{where}.a"), _name(c["b"], f"{where}.b")
+        if a == b:
+            raise ConfigError(f"{where}: a and b must differ, got {a!r} twice")
+        if c["question"] not in QUESTIONS:
+            raise ConfigError(
+                f"{where}.question: must be one of {', '.join(QUESTIONS)}, got {c['question']!r}"
+            )
+        cells.append(Cell(a, b, c["question"]))
+    if len({(c.a, c.b) for c in cells}) != len(cells):
+        raise ConfigError(f"{source}: cells: a pair is given twice")
+    return Plan(_name(d["name"], f"{source}: name"), seed, float(alpha), d["spending"], d["headline"],
+                margins, _names(d["profiles"], f"{source}: profiles"), families, tuple(cells),
+                digest)  # fmt: skip
+
+
+def load_plan(path: str | Path) -> Plan:
+    """The checked plan of a YAML file, its digest the sha256 of the file's text (what a
+    resumed run compares); ConfigError of one line naming the file otherwise."""
+    text = read_text(path, ConfigError, "plan file", MAX_DOCUMENT_BYTES)
+    digest = hashlib.sha256(text.encode()).hexdigest()
+    return check_plan(parse_yaml(text, ConfigError, str(path)), str(path), digest)
