@@ -86,6 +86,11 @@ def test_a_good_plan_loads_with_its_last_look_at_the_maximum(tmp_path: Path) -> 
             [0, 100],
             "looks[0]: must be a whole number of layouts >= 1, got 0",
         ),
+        (
+            "families.barn.looks",
+            [1, 100],
+            "the first look needs 2 layouts or more (a paired test), got 1",
+        ),
         ("families.barn.maximum", 50, "maximum: 50 is below the first look (100)"),
         ("families.barn.maximum", 150, "looks: 200 is beyond the maximum (150)"),
         ("spending", "pocock", "spending must be one of lan-demets-obrien-fleming, got 'pocock'"),

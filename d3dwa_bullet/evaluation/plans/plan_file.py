@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.evaluation.paired import METRICS
+from d3dwa_bullet.evaluation.paired import METRICS, MIN_LAYOUTS
 from d3dwa_bullet.io import read_text
 from d3dwa_bullet.limits import MAX_DOCUMENT_BYTES
 from d3dwa_bullet.loading import parse_yaml
@@ -139,6 +139,10 @@ def _family(name: str, value: Any, where: str) -> Family:
     for i in range(1, len(looks)):
         if looks[i] <= looks[i - 1]:
             raise ConfigError(f"{where}.looks: must increase, got {looks[i]} after {looks[i - 1]}")
+    if looks[0] < MIN_LAYOUTS:
+        raise ConfigError(
+            f"{where}.looks: the first look needs {MIN_LAYOUTS} layouts or more (a paired test), got {looks[0]}"
+        )
     maximum = _count(f["maximum"], f"{where}.maximum")
     if maximum < looks[0]:
         raise ConfigError(f"{where}.maximum: {maximum} is below the first look ({looks[0]})")

@@ -1,0 +1,161 @@
+"""Running a sequential plan: look by look, every open cell read, logged, stopped once it reads.
+
+:func:`run_plan` drives any source of episodes through a plan (docs/design/sequential-plans.md):
+per family, the layouts in the plan's order; at each look the episodes the open cells still
+need (a method under a profile runs only while an open cell of that profile names it) are asked
+of ``run`` (every key asked so far, so a source that skips finished episodes resumes), then each
+open cell is read on the headline metric (its question's estimator, ``looks.ESTIMATORS``)
+against the look's boundaries; a cell that reads is closed; the family stops at its maximum or
+once no cell is open. Every look of every cell is a line of ``looks.jsonl`` (rewritten whole
+after each look: a resumed run reads the same rows and so writes the same lines), and
+``looks.md`` tabulates them.
+
+A run records what it began with in ``plan.json`` (the plan file's sha256 and the code's
+identity, :func:`code_identity`); resuming with either changed is refused in one line saying
+what changed (:func:`check_resume`).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from d3dwa_bullet import __version__
+from d3dwa_bullet.errors import ConfigError, ResultsError
+from d3dwa_bullet.evaluation.page_width import split_columns
+from d3dwa_bullet.evaluation.paired import Row
+from d3dwa_bullet.evaluation.plans.boundaries import boundaries
+from d3dwa_bullet.evaluation.plans.looks import DECISIONS, ESTIMATORS, INCONCLUSIVE, OPEN, decisions
+from d3dwa_bullet.evaluation.plans.order import layout_order
+from d3dwa_bullet.evaluation.plans.plan_file import Cell, Family, Plan
+from d3dwa_bullet.io import atomic_write_text
+from d3dwa_bullet.loading import load_json
+
+PLAN_RECORD = "plan.json"
+LOOKS_LOG = "looks.jsonl"
+LOOKS_PAGE = "looks.md"
+Key = tuple[str, str, str]
+"""(layout, profile, method): the episodes of one method on one layout under one profile."""
+Source = Callable[[Sequence[Key]], Sequence[Row]]
+"""Runs (or finds) the episodes of every key given and returns their rows."""
+
+
+def code_identity() -> str:
+    """The package version and, in a git checkout, its commit ('0.1.0+<sha>', with '-dirty'
+    when files differ from it); '0.1.0' alone outside a checkout."""
+    here = Path(__file__).resolve().parent
+    try:
+        sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True,
+                             timeout=10, check=True).stdout.strip()  # fmt: skip
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", str(here.parents[1])], cwd=here,
+                               capture_output=True, text=True, timeout=10, check=True).stdout.strip()  # fmt: skip
+    except (OSError, subprocess.SubprocessError):
+        return __version__
+    return f"{__version__}+{sha[:12]}{'-dirty' if dirty else ''}"
+
+
+def check_resume(out: Path, plan: Plan, code: str) -> None:
+    """Record the plan's sha256 and the code in out/plan.json on a first run; on a resumed one,
+    ConfigError naming what changed since the run began."""
+    path = out / PLAN_RECORD
+    if not path.exists():
+        atomic_write_text(
+            path, json.dumps({"plan": plan.name, "sha256": plan.digest, "code": code}, indent=1)
+        )
+        return
+    began = load_json(path, ResultsError)
+    if not isinstance(began, dict) or not {"sha256", "code"} <= set(began):
+        raise ResultsError(f"{path}: not a plan record (needs sha256 and code)")
+    if began["sha256"] != plan.digest:
+        raise ConfigError(
+            f"{out}: the plan file changed since this run began (sha256 {str(began['sha256'])[:12]} -> "
+            f"{plan.digest[:12]}); resume with the plan it began with, or start a new --out"
+        )
+    if began["code"] != code:
+        raise ConfigError(
+            f"{out}: the code changed since this run began ({began['code']} -> {code}); resume with the "
+            "code it began with, or start a new --out"
+        )
+
+
+def _family_order(plan: Plan, family: Family, strata: Mapping[str, str]) -> list[str]:
+    """The family's layouts (strata: layout -> its stratum) in the plan's order; ConfigError
+    when they are not as many as its maximum."""
+    by = {s: sorted(layout for layout, st in strata.items() if st == s) for s in family.strata}
+    total = sum(map(len, by.values()))
+    if total != family.maximum:
+        raise ConfigError(
+            f"plan family {family.name}: maximum {family.maximum}, but the run has {total} layouts "
+            f"of its strata ({', '.join(family.strata)})"
+        )
+    return layout_order(by, plan.order_seed)
+
+
+def _read(plan: Plan, cell: Cell, profile: str, rows: Sequence[Row]) -> tuple[float, float, float]:
+    try:
+        e = ESTIMATORS[cell.question](rows, cell.a, cell.b, plan.headline)
+    except ValueError as err:  # fewer than two layouts, or a value missing
+        raise ResultsError(f"cell {cell.a},{cell.b} under {profile}: {err}") from err
+    return e.difference, e.se, e.df
+
+
+def run_plan(
+    plan: Plan, strata: Mapping[str, str], run: Source, out: Path, code: str
+) -> list[dict[str, Any]]:
+    """Run plan over the layouts of strata (layout -> its stratum) with episodes from run,
+    logging to out (looks.jsonl, looks.md); returns the log's records: one per (family, cell,
+    profile, look) read, {"family", "a", "b", "question", "profile", "look", "layouts",
+    "difference", "se", "df", "bound_difference", "bound_tost", "decision"}."""
+    check_resume(out, plan, code)
+    margin, records = plan.margins[plan.headline], []
+    for family in plan.families:
+        order = _family_order(plan, family, strata)
+        t = np.asarray(family.fractions)
+        bound_d, bound_t = boundaries(t, plan.alpha / 2), boundaries(t, plan.alpha)
+        open_cells = [(c, p) for c in plan.cells for p in plan.profiles]
+        asked: set[Key] = set()
+        for k, n in enumerate(family.looks):
+            read = set(order[:n])
+            for profile in plan.profiles:
+                need = {m for c, p in open_cells if p == profile for m in (c.a, c.b)}
+                asked |= {(layout, profile, m) for layout in order[:n] for m in need}
+            rows = [r for r in run(sorted(asked)) if r["world"] in read]
+            still = []
+            for cell, profile in open_cells:
+                here = [r for r in rows if r["noise"] == profile]
+                d, se, df = _read(plan, cell, profile, here)
+                got = int(
+                    decisions(
+                        np.array(d), np.array(se), np.array(df), margin, bound_d[k], bound_t[k]
+                    )
+                )
+                if got == OPEN and k == len(family.looks) - 1:
+                    got = INCONCLUSIVE
+                records.append({"family": family.name, "a": cell.a, "b": cell.b, "question": cell.question,
+                                "profile": profile, "look": k + 1, "layouts": n, "difference": d, "se": se,
+                                "df": df, "bound_difference": float(bound_d[k]), "bound_tost": float(bound_t[k]),
+                                "decision": DECISIONS[got]})  # fmt: skip
+                if got == OPEN:
+                    still.append((cell, profile))
+            open_cells = still
+            _write_log(out, records, plan)
+            if not open_cells:
+                break
+    return records
+
+
+def _write_log(out: Path, records: Sequence[Mapping[str, Any]], plan: Plan) -> None:
+    atomic_write_text(out / LOOKS_LOG, "".join(json.dumps(r) + "\n" for r in records))
+    body = [[r["family"], f"`{r['a']}` vs `{r['b']}`", r["profile"], str(r["look"]), str(r["layouts"]),
+             f"{r['difference']:+.4f}", f"{r['se']:.4f}", f"{r['bound_difference']:.3f}", f"{r['bound_tost']:.3f}",
+             r["decision"]] for r in records]  # fmt: skip
+    head = ["family", "A vs B", "profile", "look", "layouts", "A - B", "se", "bound (difference)",
+            "bound (TOST)", "decision"]  # fmt: skip
+    table = split_columns(head, ["---"] * 4 + ["---:"] * 5 + ["---"], body, keys=3)
+    title = f"# Looks of {plan.name}\n\nHeadline {plan.headline}, margin {plan.margins[plan.headline]:g}; bounds on z.\n\n"
+    atomic_write_text(out / LOOKS_PAGE, title + table + "\n")
