@@ -8,6 +8,8 @@ extended, never shrunk or mixed, as with ``d3dwa eval`` (see
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+from typing import Any
 
 from d3dwa_bullet.backends import check_address
 from d3dwa_bullet.cli.options import (
@@ -29,6 +31,7 @@ from d3dwa_bullet.cli.options import (
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
 from d3dwa_bullet.evaluation.noise_axes import AXES
+from d3dwa_bullet.evaluation.plans.plan_file import Plan, check_fits, load_plan
 from d3dwa_bullet.evaluation.results import read_meta
 from d3dwa_bullet.evaluation.reuse import reuse_arg, reused_lines
 from d3dwa_bullet.evaluation.sweep_settings import (
@@ -76,6 +79,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default="all",
         help="training seeds of each learned method: 'all' (default) or a list like 0,2",
     )
+    p.add_argument(
+        "--plan",
+        help="a sequential plan file: run it look by look (docs/design/sequential-plans.md)",
+    )
     p.add_argument("--json", action="store_true", help="print summary statistics as JSON")
     p.add_argument("--physics-hz", type=int, default=240, help="physics rate")
     p.add_argument("--control-hz", type=int, default=10, help="control (planning) rate")
@@ -105,6 +112,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     )  # fmt: skip
     policy = policy_arg(args.policy, settings.methods)
     config = episode_config(args)
+    plan = load_plan(args.plan) if args.plan else None
+    if plan is not None:
+        check_fits(plan, settings.methods, settings.profiles)
     # a bad or empty world file is refused before any episode
     worlds = [load_cli_world(w, args.allow_empty, warn=False) for w in settings.worlds]
     # start-up cost: the sweep's episodes import the simulator (pybullet) and the planner (numba)
@@ -115,6 +125,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     check_distinct([Job(w, settings.methods[0], 0, "none") for w in worlds])
     reuse = reuse_arg(args.reuse, args.reuse_check, args.out)
     out = check_out_dir(args.out, subdirs=("logs", "figures"))
+    if plan is not None:
+        return _run_plan(args, settings, plan, out, workers, config, policy, reuse)
     rows, complete = run_sweep(
         settings, out, workers=workers, ray_address=args.ray,
         config=config, progress=not args.json, policy=policy,
@@ -130,4 +142,24 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         if complete:
             print(f"tables:  {out / 'sweep.md'}\nfigures: {out / 'figures'}/sweep_*.png")
             print(f"page:    d3dwa report {out}")
+    return 0
+
+
+def _run_plan(args: argparse.Namespace, settings: SweepSettings, plan: Plan, out: Path, workers: int,
+              config: Any, policy: str | None, reuse: Any) -> int:  # fmt: skip
+    """The sweep under a sequential plan: each cell's last look, then where the log is."""
+    from d3dwa_bullet.evaluation.plans.sweep_plan import run_plan_sweep
+
+    records = run_plan_sweep(
+        settings, plan, out, workers=workers, ray_address=args.ray, config=config,
+        progress=not args.json, policy=policy, command=getattr(args, "command_line", ""), reuse=reuse,
+    )  # fmt: skip
+    last = {(r["family"], r["a"], r["b"], r["profile"]): r for r in records}
+    if args.json:
+        print(json_text({"looks": records}))
+        return 0
+    for (family, a, b, profile), r in last.items():
+        print(f"{family}: {a} vs {b} under {profile}: {r['decision']} at look {r['look']} "
+              f"({r['layouts']} layouts, A - B {r['difference']:+.4f})")  # fmt: skip
+    print(f"looks:   {out / 'looks.md'} ({out / 'looks.jsonl'})")
     return 0

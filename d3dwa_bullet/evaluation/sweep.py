@@ -45,7 +45,6 @@ from typing import Any
 
 from tqdm import tqdm
 
-from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.evaluation.barn_tables import TERCILE_ORDER, tercile_group
@@ -54,8 +53,7 @@ from d3dwa_bullet.evaluation.jobs import Job, evaluate, noise_config_json
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.page_width import fit_prose, world_span
 from d3dwa_bullet.evaluation.plotting import sweep_figure
-from d3dwa_bullet.evaluation.policy_config import policy_config_notes
-from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
+from d3dwa_bullet.evaluation.policy_runs import method_runs
 from d3dwa_bullet.evaluation.results import (
     CSV_FIELDS,
     completion,
@@ -70,6 +68,7 @@ from d3dwa_bullet.evaluation.scores import UNSCORED_NOTE, is_scored
 from d3dwa_bullet.evaluation.seed_tables import condition_table
 from d3dwa_bullet.evaluation.stats import Series, group_series
 from d3dwa_bullet.evaluation.style_tables import style_section
+from d3dwa_bullet.evaluation.sweep_meta import sweep_meta
 from d3dwa_bullet.evaluation.sweep_settings import (
     BASELINE,
     SweepSettings,
@@ -77,14 +76,10 @@ from d3dwa_bullet.evaluation.sweep_settings import (
 )
 from d3dwa_bullet.evaluation.tables import repeats_note, run_notes, series_table
 from d3dwa_bullet.evaluation.training_worlds import (
-    SETTINGS_KEY,
     group_flag,
-    runs_barn_training,
-    settings_entry,
     trained_worlds,
     training_lines,
 )
-from d3dwa_bullet.external.resolve import method_origins
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.learning.agents.barn_record import BarnTraining
 from d3dwa_bullet.limits import MAX_EPISODES
@@ -368,18 +363,9 @@ def run_sweep(
 ) -> tuple[list[dict[str, Any]], bool]:
     """Run (or resume) a sweep into out; returns (rows, complete). When complete, writes
     sweep.md and (with figures) figures/sweep_*.png. reuse: see ``jobs.evaluate``."""
-    runs = method_runs(settings.methods, policy, settings.policy_seeds)
-    for run in runs:
-        make_controller(run.method, run.policy)  # fail fast on a missing policy
     out = Path(out)
-    meta = {"kind": "sweep", "command": command} | settings.to_dict()
-    meta["policy_digests"] = policy_digests(runs)
-    meta["method_sources"] = method_origins(settings.methods)
-    if policy:
-        meta["policy"] = str(Path(policy).resolve())
-    notes = meta["policy_notes"] = policy_config_notes(runs, config.recovery_name, policy)
-    training = runs_barn_training(runs)
-    meta[SETTINGS_KEY] = settings_entry(training)
+    meta, training = sweep_meta(settings, config, policy, command)
+    notes = meta["policy_notes"]
     with locked_dir(out):  # one writer: the episodes, then the page and figures
         # refused (held, another time limit, ...) before minutes of generating layouts
         check_resumable(out, SWEEP_FIELDS, config, meta, settings.methods)

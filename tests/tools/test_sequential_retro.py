@@ -11,7 +11,8 @@ import yaml
 
 from d3dwa_bullet.errors import ConfigError, ResultsError
 from d3dwa_bullet.evaluation.plans import check_plan
-from tools.experiments.sequential_retro import main, page, replay, stratum_of
+from d3dwa_bullet.evaluation.plans.order import stratum_of
+from tools.experiments.sequential_retro import main, page, replay
 
 PLAN: dict[str, Any] = {
     "name": "test", "order_seed": 5, "alpha": 0.05, "spending": "lan-demets-obrien-fleming",

@@ -42,19 +42,12 @@ from d3dwa_bullet.evaluation.plans import (
     load_plan,
     prefix_estimates,
 )
+from d3dwa_bullet.evaluation.plans.order import stratum_of
 from d3dwa_bullet.evaluation.readings import metric_text
-from d3dwa_bullet.evaluation.style_tables import style_of
-from d3dwa_bullet.world.barn_difficulty import TERCILE_GROUPS
 from tools.entry import ToolParser, tool_main
 from tools.experiments.plan_readings import finished_rows, read_cells
 
 Rows = Sequence[Mapping[str, Any]]
-
-
-def stratum_of(row: Mapping[str, Any]) -> str | None:
-    """A sweep row's stratum as a plan names it: ``barn`` for a BARN world, a generated
-    layout's style (``R1-style`` ...), else None."""
-    return "barn" if row.get("layout") in TERCILE_GROUPS else style_of(row)
 
 
 def family_layouts(rows: Rows, family: Family) -> dict[str, list[str]]:

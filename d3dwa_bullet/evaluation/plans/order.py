@@ -10,8 +10,21 @@ stratum), and the same seed and layouts give the same order anywhere.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
+
+from d3dwa_bullet.evaluation.style_tables import style_of
+from d3dwa_bullet.world.barn_difficulty import TERCILE_GROUPS
+
+
+def stratum_of(row: Mapping[str, Any]) -> str | None:
+    """A sweep row's (or job's: world and layout group) stratum as a plan names it: ``barn``
+    for a BARN world, a generated layout's style (``R1-style`` ...), else its layout group
+    (``shipped``, ``given``) or None."""
+    if row.get("layout") in TERCILE_GROUPS:
+        return "barn"
+    return style_of(row) or row.get("layout") or None
 
 
 def layout_order(strata: Mapping[str, Sequence[str]], seed: int) -> list[str]:

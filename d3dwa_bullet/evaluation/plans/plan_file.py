@@ -223,3 +223,14 @@ def load_plan(path: str | Path) -> Plan:
     text = read_text(path, ConfigError, "plan file", MAX_DOCUMENT_BYTES)
     digest = hashlib.sha256(text.encode()).hexdigest()
     return check_plan(parse_yaml(text, ConfigError, str(path)), str(path), digest)
+
+
+def check_fits(plan: Plan, methods: Sequence[str], profiles: Sequence[str]) -> None:
+    """ConfigError (one line) when a cell's method is not among a run's methods, or a plan's
+    profile not among its profiles (``none``, the noise-free baseline, is always run)."""
+    for m in plan.methods:
+        if m not in methods:
+            raise ConfigError(f"plan cell method {m!r} is not in --methods ({', '.join(methods)})")
+    for p in plan.profiles:
+        if p not in profiles and p != "none":
+            raise ConfigError(f"plan profile {p!r} is not in --profiles ({', '.join(profiles)})")
