@@ -95,3 +95,4 @@ def test_a_family_whose_maximum_is_not_the_runs_layouts_is_refused(tmp_path: Pat
     plan = check_plan(PLAN, "plan.yaml", "a" * 64)
     with pytest.raises(ConfigError, match="maximum 60, but the run has 50 layouts"):
         run_plan(plan, dict(list(STRATA.items())[:50]), Source(), tmp_path, "0.1.0")
+    assert not (tmp_path / "plan.json").exists()  # nothing recorded: a corrected plan may run here

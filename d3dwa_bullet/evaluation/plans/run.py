@@ -111,10 +111,12 @@ def run_plan(
     logging to out (looks.jsonl, looks.md); returns the log's records: one per (family, cell,
     profile, look) read, {"family", "a", "b", "question", "profile", "look", "layouts",
     "difference", "se", "df", "bound_difference", "bound_tost", "decision"}."""
+    orders = [
+        _family_order(plan, family, strata) for family in plan.families
+    ]  # refused before plan.json
     check_resume(out, plan, code)
     margin, records = plan.margins[plan.headline], []
-    for family in plan.families:
-        order = _family_order(plan, family, strata)
+    for family, order in zip(plan.families, orders, strict=True):
         t = np.asarray(family.fractions)
         bound_d, bound_t = boundaries(t, plan.alpha / 2), boundaries(t, plan.alpha)
         open_cells = [(c, p) for c in plan.cells for p in plan.profiles]
