@@ -8,7 +8,6 @@ import pytest
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.plans import (
     ESTIMATORS,
-    boundaries,
     decisions,
     differences_estimate,
     first_reading,
@@ -17,27 +16,26 @@ from d3dwa_bullet.evaluation.plans import (
 )
 from d3dwa_bullet.evaluation.plans.boundaries import maximum_layouts
 from d3dwa_bullet.evaluation.plans.looks import A_BETTER, B_BETTER, EQUIVALENT, INCONCLUSIVE, OPEN
+from d3dwa_bullet.evaluation.plans.simulate import simulate
 
 ALPHA = 0.05
-FRACTIONS = np.arange(1, 6) / 5
+LOOKS = [5, 10]
+"""Equally spaced looks of the simulations: five, and ten as the yardstick's retro-check plan has."""
 REPLICATES = 20_000
 MC = 3 * np.sqrt(0.05 * 0.95 / REPLICATES)
 """Three Monte Carlo standard errors of a 5 % rate over the replicates: the tests' allowance."""
 
 
-def _run(true: float, n: int, margin: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """The sequential readings of REPLICATES cells of n layouts, per-layout differences
-    N(true, 1), looked at FRACTIONS: (reading code, look index) each (REPLICATES,)."""
-    d = np.random.default_rng(seed).normal(true, 1.0, size=(REPLICATES, n))
-    looks = np.round(FRACTIONS * n).astype(int)
-    t = looks / n
-    diff, se, df = prefix_estimates(d, looks)
-    codes = decisions(diff, se, df, margin, boundaries(t, ALPHA / 2), boundaries(t, ALPHA))
-    return first_reading(codes)
+def _run(
+    true: float, n: int, margin: float, seed: int, k: int = 5
+) -> tuple[np.ndarray, np.ndarray]:
+    """REPLICATES cells of n layouts, per-layout differences N(true, 1), k equally spaced looks."""
+    return simulate(true, n, margin, k, REPLICATES, seed, ALPHA)
 
 
-def test_no_difference_reads_as_one_at_most_five_per_cent_of_the_time() -> None:
-    reading, _ = _run(0.0, 200, 0.2, seed=1)
+@pytest.mark.parametrize("k", LOOKS)
+def test_no_difference_reads_as_one_at_most_five_per_cent_of_the_time(k: int) -> None:
+    reading, _ = _run(0.0, 200, 0.2, seed=1, k=k)
     wrong = np.isin(reading, [A_BETTER, B_BETTER]).mean()
     assert wrong <= ALPHA + MC
     assert (reading == EQUIVALENT).mean() > 0.5  # the margin is 0.2 sd: most cells read equivalent
@@ -51,13 +49,14 @@ def test_a_difference_on_the_margin_reads_equivalent_at_most_five_per_cent_of_th
     assert (reading == EQUIVALENT).mean() <= ALPHA + MC
 
 
-def test_power_at_the_design_effect_is_eighty_per_cent() -> None:
+@pytest.mark.parametrize("k", LOOKS)
+def test_power_at_the_design_effect_is_eighty_per_cent(k: int) -> None:
     effect = 0.25  # sd 1: the plan's maximum sized for this effect at 80 % power
-    n = maximum_layouts(effect, 1.0, FRACTIONS, ALPHA / 2, 0.8)
-    reading, look = _run(effect, n, 0.05, seed=3)
+    n = maximum_layouts(effect, 1.0, np.arange(1, k + 1) / k, ALPHA / 2, 0.8)
+    reading, look = _run(effect, n, 0.05, seed=3, k=k)
     assert (reading == A_BETTER).mean() >= 0.8 - MC
     assert (reading == B_BETTER).mean() < 0.001
-    assert look[reading == A_BETTER].mean() < FRACTIONS.size - 1.5  # most stop before the maximum
+    assert np.mean(look[reading == A_BETTER] < k - 1) > 0.5  # most stop before the maximum
 
 
 def test_the_prefix_estimates_are_the_estimate_of_each_prefix() -> None:
