@@ -48,6 +48,20 @@ def test_a_plan_stops_its_cell_at_the_first_look_and_resumes(
     assert "the plan file changed since this run began" in err and err.count("\n") == 1
 
 
+def test_a_plan_reads_a_directory_holding_more_than_its_looks_need(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A run killed in a later look, or a whole sweep run before: resumed, nothing run again."""
+    plan = tmp_path / "plan.yaml"
+    plan.write_text(yaml.safe_dump(PLAN))
+    out = tmp_path / "run"
+    assert main(_args(out, plan)[:-2]) == 0  # the plain sweep: all 4 layouts x 2 methods
+    assert len(read_sweep(out)) == 8
+    assert main(_args(out, plan)) == 0
+    assert "equivalent at look 1 (2 layouts" in capsys.readouterr().out
+    assert len(read_sweep(out)) == 8
+
+
 @pytest.mark.parametrize(
     ("change", "says"),
     [

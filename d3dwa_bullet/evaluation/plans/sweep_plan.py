@@ -53,9 +53,15 @@ def run_plan_sweep(
             by_key[(j.world.name, j.noise, j.method)].append(j)
             strata[j.world.name] = str(stratum_of(_layout(j)))
 
+        # episodes already in out (a later look of a killed run, a sweep run before) are listed
+        # with every look's jobs, so the directory is resumed, never refused as holding others
+        held = {row_key(r) for r in read_sweep(out)} if (out / "results.csv").exists() else set()
+        before = [j for j in jobs if j.key in held]
+
         def source(keys: Sequence[Key]) -> list[dict[str, Any]]:
             chosen = [j for k in keys for j in by_key.get(k, ())]
-            evaluate(chosen, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta, reuse)
+            listed = list({j.key: j for j in [*before, *chosen]}.values())
+            evaluate(listed, out, workers, config, progress, ray_address, SWEEP_FIELDS, meta, reuse)
             wanted = {j.key for j in chosen}
             return [r for r in read_sweep(out) if row_key(r) in wanted]
 
