@@ -304,6 +304,21 @@ def test_results_is_the_current_page() -> None:
     assert (ROOT / "docs" / "history.md").is_file()
 
 
+def test_results_opens_with_one_answer_per_question() -> None:
+    # A newcomer finds the current answers to (a), (b) and (c) in the first 30 lines, each saying
+    # what it is about, and the page uses no name a reader cannot look up.
+    text = (ROOT / "docs" / "results.md").read_text(encoding="utf-8")
+    first = "\n".join(text.splitlines()[:30])
+    for question in ("a", "b", "c"):
+        assert first.count(f'<a id="answer-{question}">') == 1
+        assert first.count(f"**({question}) ") == 1
+    assert first.count("for these policies") >= 3
+    internal = re.compile(
+        r"\bissues? \d+|\bpilot [A-Z]\b|\brecipe \d+|\bsessions? \d+", re.IGNORECASE
+    )
+    assert internal.findall(text) == []
+
+
 def test_pages_keep_the_page_width() -> None:
     pages = markdown_pages()
     # The scan must see the pages, or it passes vacuously.
