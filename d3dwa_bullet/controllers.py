@@ -1,8 +1,8 @@
-"""Building the controller of a method (docs/design.md#methods): a fixed tuple, a reference
+"""Building the controller of a method (docs/design/methods.md#methods): a fixed tuple, a reference
 method's uniform chooser with its decision period, or a learned method's greedy policy loaded
 from a checkpoint directory (``policies/<name>/`` by default, or ``--policy PATH``) or from an
-exported ONNX file (``--onnx FILE``, docs/design.md#onnx-policies), or a method from outside
-the package (``package.module:Name`` or an entry point, docs/design.md#external-methods).
+exported ONNX file (``--onnx FILE``, docs/design/onnx.md#onnx-policies), or a method from outside
+the package (``package.module:Name`` or an entry point, docs/design/external-methods.md#external-methods).
 
 Above the learning layer: loading a policy imports it. The facts about methods (names, action
 sets, families) are :mod:`d3dwa_bullet.method_specs`; the controller itself is
@@ -127,7 +127,7 @@ def _onnx_controller(name: str, policy_path: str | Path | None, onnx: str | Path
 def _onnx_file(method: ExternalMethod) -> Controller:
     """The controller of an ONNX file named as a method: its policy run greedily over the
     action set, decision period and observation its metadata declare
-    (docs/design.md#external-methods); the recovery layer and scan filter it trained with are
+    (docs/design/external-methods.md#external-methods); the recovery layer and scan filter it trained with are
     noted as for a policy."""
     # the optional `robot` extra (onnxruntime), imported only when a file is run
     from d3dwa_bullet.learning.agents.onnx_policy import load_onnx_policy

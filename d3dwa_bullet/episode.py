@@ -75,7 +75,7 @@ class EpisodeResult:
     a built-in method."""
     overruns: int = 0
     """Calls of a method from outside the package that took longer than the control period
-    (the simulation did not wait for them: docs/design.md#external-methods)."""
+    (the simulation did not wait for them: docs/design/external-methods.md#external-methods)."""
     log: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     observations: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)), repr=False)
 
@@ -142,7 +142,7 @@ class Episode:
     builds the observation from the estimate; ``act`` plans with the given parameters and
     drives one control period. ``run_episode``, the Gymnasium env and the bag recorder all
     run this same loop. ``observation`` is the kind the controller reads (``paper``, or
-    ``progress``: docs/design.md#progress-observation).
+    ``progress``: docs/design/observation.md#progress-observation).
     """
 
     def __init__(
@@ -330,7 +330,7 @@ def step_plan(
     action: PlannerAction, params: PlannerParams,
 ) -> PlanResult:  # fmt: skip
     """One planning step: the DWA with action's weights and horizon (local None), else a
-    velocity planner's command (docs/design.md#external-methods), given copies of the
+    velocity planner's command (docs/design/external-methods.md#external-methods), given copies of the
     inputs. pose (x, y, yaw) and velocity (v, w): the estimate; points: (M, 2) m, base_link;
     goal: (2,) m, base_link."""
     if local is None:

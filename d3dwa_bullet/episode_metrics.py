@@ -1,5 +1,5 @@
-"""Episode metrics (docs/design.md#metrics), pure functions of the logged ground-truth trajectory,
-and the episode score (docs/design.md#score): outcome and time against a reference length."""
+"""Episode metrics (docs/design/metrics.md#metrics), pure functions of the logged ground-truth trajectory,
+and the episode score (docs/design/score.md#score): outcome and time against a reference length."""
 
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ def body_clearance(world: World, poses: np.ndarray, samples_per_side: int = 6) -
 
 
 SCORE_FORM = "kachaka-v2"
-"""Name of the robot form of the score (docs/design.md#score); results record it. v2 takes L from
+"""Name of the robot form of the score (docs/design/score.md#score); results record it. v2 takes L from
 the footprint's shortest route on every world; v1 took BARN's published path on BARN worlds, which
 is longer than the route Kachaka drives, so a quarter of BARN's successes sat at the clip (1.0)."""
 ROBOT_CLIP = (1.0, 8.0)

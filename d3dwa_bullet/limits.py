@@ -111,7 +111,7 @@ cut and ends in a hash of the whole (:func:`d3dwa_bullet.io.file_stem`), so it s
 the atomic writer's temporary name adds 14 bytes to the final one."""
 
 MAX_DECISION_STEPS = Limit(100, "a decision period of 10 s at 10 Hz is a sixth of an episode")
-"""Longest decision period, control steps each chosen action is held (docs/design.md#decision-period):
+"""Longest decision period, control steps each chosen action is held (docs/design/agent.md#decision-period):
 a training config's and the env's ``decision_steps``, and what a policy's meta.json or ONNX
 metadata may record, and a reference method's hold (``random@10``). The paper decides every
 step; the shipped policies every 10."""

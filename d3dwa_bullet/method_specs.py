@@ -1,5 +1,5 @@
 """The facts about the methods every command and table knows, by their stable names
-(docs/design.md#methods): names, labels, families, action sets, observation kinds, fixed tuples,
+(docs/design/methods.md#methods): names, labels, families, action sets, observation kinds, fixed tuples,
 and the reference methods with their decision periods.
 
 Pure facts: no simulator, no torch, no policy file is read here, so every layer (the learning
@@ -18,7 +18,7 @@ default tables show both floors: every step, and held for the shipped policies' 
 A fourth family, ``external``: a name that is not built in but names a method from outside
 the package, ``package.module:Name``, an entry point of ``d3dwa_bullet.methods`` or an ONNX
 file exported by ``d3dwa export``
-(docs/design.md#external-methods). Only its name is judged here; loading it is
+(docs/design/external-methods.md#external-methods). Only its name is judged here; loading it is
 :mod:`d3dwa_bullet.external.resolve`'s job. Built-in names are looked up first, so they are
 never shadowed, and installed entry points are read only for a name that is not built in.
 """
@@ -46,7 +46,7 @@ FIXED: dict[str, PlannerAction] = {
     "dwa3": PlannerAction(2.0, 1.0, 1.0, 4.0),
 }
 #: Reference methods and the action set each draws from uniformly: a floor a learned method
-#: must clear (docs/design.md#methods). They need no policy. ``random`` is the floor of the
+#: must clear (docs/design/methods.md#methods). They need no policy. ``random`` is the floor of the
 #: 100-action methods, ``random-weights`` of the 25-action ones (SPEC 6: uniform over the
 #: method's action set).
 REFERENCE: dict[str, ActionSet] = {"random": ACTIONS_FULL, "random-weights": ACTIONS_WEIGHTS_ONLY}
@@ -59,7 +59,7 @@ SHIPPED_DECISION_STEPS = 10
 HELD_REFERENCE = tuple(f"{r}{HOLD_MARK}{SHIPPED_DECISION_STEPS}" for r in REFERENCE)
 #: The suffix of a learned method trained on BARN's ``train`` split (issue 56): ``d3dwa-barn`` is
 #: ``d3dwa``'s learner and action set, trained on BARN worlds instead of TS1-TS4 and R-style
-#: layouts (configs/d3dwa-barn.yaml; docs/design.md#barn-training). Beside the shipped methods,
+#: layouts (configs/d3dwa-barn.yaml; docs/design/training.md#barn-training). Beside the shipped methods,
 #: never instead of them; its policies ship under policies/<name>/.
 BARN_MARK = "-barn"
 #: Learned methods and the action set their policy must have.
@@ -76,7 +76,7 @@ LEARNED: dict[str, ActionSet] = {
 #: The observation kind a learned method's policy reads when it is not the paper's 12-d state
 #: (``planning.observation_kinds``). ``d3dwa-history-dr``, beyond the paper and beside
 #: ``d3dwa-dr`` (never instead of it), reads the last 1 s of states and its previous action
-#: (docs/design.md#history-observation). The progress-aware methods, which shipped nothing,
+#: (docs/design/observation.md#history-observation). The progress-aware methods, which shipped nothing,
 #: left the registry (issue 41); their kind stays for the env.
 OBSERVATIONS: dict[str, str] = {"d3dwa-history-dr": "history"}
 #: Learned methods whose policy is a network, so exports to ONNX (dqdwa's is a Q-table).

@@ -57,7 +57,7 @@ class Footprint:
 
 @dataclass(frozen=True)
 class PlannerParams:
-    """DWA parameters (docs/design.md#planner)."""
+    """DWA parameters (docs/design/planner.md#planner)."""
 
     n_v: int = 20
     """Velocity samples along v."""
@@ -95,7 +95,7 @@ class PlannerParams:
 
 @dataclass(frozen=True)
 class ObservationParams:
-    """Observation layout (docs/design.md#observation)."""
+    """Observation layout (docs/design/observation.md#observation)."""
 
     sectors: int = 8
     """Number of angular sectors K."""
@@ -128,13 +128,13 @@ PROGRESS_WINDOW = 10.0
 progress-aware observation divides the time without progress by."""
 OBSERVATION_KINDS = ("paper", "progress", "history")
 """What a policy reads: the paper's 12-d state, that state and five progress entries
-(docs/design.md#progress-observation), or that state over the last 10 control steps and the
-previous action (docs/design.md#history-observation); ``planning.observation_kinds``."""
+(docs/design/observation.md#progress-observation), or that state over the last 10 control steps and the
+previous action (docs/design/observation.md#history-observation); ``planning.observation_kinds``."""
 
 
 @dataclass(frozen=True)
 class ProgressObservationParams:
-    """The five entries the ``progress`` observation appends (docs/design.md#progress-observation)."""
+    """The five entries the ``progress`` observation appends (docs/design/observation.md#progress-observation)."""
 
     radius: float = PROGRESS_RADIUS
     """Progress checker radius on the estimated pose, m."""
@@ -225,14 +225,14 @@ class SimParams:
 
 RECOVERY_KINDS = ("none", "nav2")
 """``--recovery`` values: no recovery layer (the paper's stack), or Nav2's progress checker
-and recovery sequence adapted to Kachaka (docs/design.md#recovery)."""
+and recovery sequence adapted to Kachaka (docs/design/recovery.md#recovery)."""
 RECOVERY_BEHAVIOURS = ("spin", "back_up")
 """Recovery behaviours a sequence may hold; a per-step log codes them 1, 2 (0 = none)."""
 
 
 @dataclass(frozen=True)
 class RecoveryParams:
-    """The recovery layer around any controller (docs/design.md#recovery); off when an
+    """The recovery layer around any controller (docs/design/recovery.md#recovery); off when an
     episode's ``EpisodeConfig.recovery`` is None.
 
     Progress is checked on the *estimated* pose with the semantics of Nav2's

@@ -1,7 +1,8 @@
 """Kachaka's geometry, in one place: body box, wheels, sensor mounts, planner footprint.
 
 Every length is in metres, in base_link: x forward, y left, z up, origin on the drive-wheel
-axis at mid-track, ``AXLE_HEIGHT`` above the floor (docs/design.md sections 3.1 and 4.4). The URDF
+axis at mid-track, ``AXLE_HEIGHT`` above the floor (docs/design/robot.md#kachaka and
+docs/design/planner.md#footprint). The URDF
 (``urdf/kachaka.urdf``) states the same numbers for PyBullet; ``tests/test_robot.py`` parses
 it and checks it against this module, so the two cannot drift apart.
 """

@@ -1,6 +1,6 @@
 """Training-seed folders: ``<dir>/seed-<k>/``, seed lists like ``0-4``, and what a folder holds.
 
-One trained method is a folder of training seeds (docs/design.md#learning-protocol):
+One trained method is a folder of training seeds (docs/design/learning-protocol.md#learning-protocol):
 ``d3dwa train --seeds 0-4 --out runs/NAME`` writes ``runs/NAME/seed-<k>/`` and ``--export``
 ships them as ``policies/<method>/seed-<k>/``. Training, evaluation and the method registry
 all name, list and parse those folders here.

@@ -1,4 +1,4 @@
-"""Randomisation profiles and per-episode noise sampling (docs/design.md#profiles).
+"""Randomisation profiles and per-episode noise sampling (docs/design/noise.md#profiles).
 
 >>> from randomization import load_profile, episode_noise
 >>> noise = episode_noise(load_profile("real"), seed=7)   # a NoiseModel for one episode

@@ -1,4 +1,4 @@
-"""The history observation (docs/design.md#history-observation): the paper's state over the last
+"""The history observation (docs/design/observation.md#history-observation): the paper's state over the last
 10 control steps and the previous action, built alike by the simulator and the bag replay, and
 refused wherever a method of the other kind would feed it."""
 

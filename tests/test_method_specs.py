@@ -1,6 +1,6 @@
 """The method registry's reference methods: `random` uniform over the 100 actions and
 `random-weights` over the 25 weights-only ones, drawn from their own stream of the episode
-seed, methods without a policy (docs/design.md#methods)."""
+seed, methods without a policy (docs/design/methods.md#methods)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The episode score (docs/design.md#score): both forms against values worked by hand."""
+"""The episode score (docs/design/score.md#score): both forms against values worked by hand."""
 
 from __future__ import annotations
 

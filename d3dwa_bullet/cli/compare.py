@@ -12,11 +12,11 @@ noise, then all tasks.
 
 Beside each P(A > B), a test paired by layout: the one-sided Wilcoxon signed-rank p-value of
 A > B over the (layout, noise, evaluation seed) both ran, each side's success there averaged
-over its training seeds (:mod:`d3dwa_bullet.evaluation.paired`, docs/design.md#paired-test).
+over its training seeds (:mod:`d3dwa_bullet.evaluation.paired`, docs/design/learning-protocol.md#paired-test).
 ``--methods A`` alone, A a learned method, compares A with both its floors present in DIR
 (every step and held).
 
-Then the readings (:mod:`d3dwa_bullet.evaluation.readings`, docs/design.md#readings): paired by
+Then the readings (:mod:`d3dwa_bullet.evaluation.readings`, docs/design/readings.md#readings): paired by
 layout (each side averaged over its training and evaluation seeds there), per group and
 overall, for success, the score and BARN's official score, the mean difference with its 95 %
 interval, the one-sided paired t-tests, TOST against the margins (``--margin-success`` in
@@ -93,7 +93,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
             metavar="POINTS" if points else "DELTA",
             help=f"equivalence margin of the {METRIC_NAMES[metric]}"
             + (" in success points" if points else "")
-            + ", stated before the run (default %(default)g; docs/design.md#readings)",
+            + ", stated before the run (default %(default)g; docs/design/readings.md#readings)",
         )
     p.add_argument("--json", action="store_true", help="print the records as JSON")
     p.set_defaults(func=cmd_compare)
@@ -367,7 +367,7 @@ def _print(
                 f"\n{len(seeds)} evaluation seeds share each layout, so these pairs are not "
                 "independent (without noise a fixed or greedy method repeats its episode at "
                 "every seed): `--pair-by layout` is the conservative test "
-                "(docs/design.md#paired-test)."
+                "(docs/design/learning-protocol.md#paired-test)."
             )
         )
     print(
@@ -376,7 +376,7 @@ def _print(
             "training and evaluation seeds there); A - B with its 95 % t interval (success in "
             "points), the smaller one-sided paired t p-value, TOST's p against the margin; a "
             "difference reads at p < 0.025 each way, equivalence at TOST p < 0.05 "
-            "(docs/design.md#readings).\n"
+            "(docs/design/readings.md#readings).\n"
         )
     )
     readings = {r["group"]: r["readings"] for r in records}

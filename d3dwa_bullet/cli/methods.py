@@ -52,5 +52,7 @@ def cmd_methods(args: argparse.Namespace) -> int:
         print(f"{r['name']:<{width}}  {r['family']:<9} {r['label']}  [{r['source']}{policy}]")
     print(f"\nmethods from outside the package: interface version {INTERFACE_VERSION}")
     print(f"  a class as package.module:Name, or installed in the group {ENTRY_POINT_GROUP}")
-    print("  an ONNX file written by `d3dwa export` (docs/design.md#external-methods)")
+    print(
+        "  an ONNX file written by `d3dwa export` (docs/design/external-methods.md#external-methods)"
+    )
     return 0

@@ -270,13 +270,13 @@ def add_recovery_options(p: argparse.ArgumentParser) -> None:
         "--recovery",
         default="none",
         help="recovery layer around the controller: none (the paper's stack, default) or "
-        "nav2 (progress checker + spin / back-up, beyond the paper; docs/design.md#recovery)",
+        "nav2 (progress checker + spin / back-up, beyond the paper; docs/design/recovery.md#recovery)",
     )
     p.add_argument(
         "--scan-filter",
         default="none",
         help=f"scan filter before the observation and the planner: {', '.join(SCAN_FILTERS)} "
-        "(none: the paper's stack, default; beyond the paper: docs/design.md#scan-filter)",
+        "(none: the paper's stack, default; beyond the paper: docs/design/scan-filter.md#scan-filter)",
     )
     p.add_argument(
         "--progress-radius", type=float, help="with --recovery: movement radius, m (default 0.5)"
@@ -362,7 +362,7 @@ def add_reuse_options(p: argparse.ArgumentParser) -> None:
         "--reuse",
         metavar="DIR",
         help="take the episodes another results directory provably ran the same (same config, "
-        "policies, worlds) instead of running them; docs/design.md#reuse",
+        "policies, worlds) instead of running them; docs/design/metrics.md#reuse",
     )
     p.add_argument(
         "--reuse-check",

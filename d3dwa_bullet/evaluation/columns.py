@@ -2,7 +2,7 @@
 
 A NaN or inf where a table averages, or an outcome no table counts, is refused, not counted
 (``TYPED_COLUMNS``); so is a hand-edited ``recovery`` column that mixes tracks or names no
-recovery layer (``check_one_track``): a results directory is one track (docs/design.md#recovery),
+recovery layer (``check_one_track``): a results directory is one track (docs/design/recovery.md#recovery),
 and pooling two would report a table neither track ran.
 """
 

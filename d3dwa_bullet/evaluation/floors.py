@@ -1,6 +1,6 @@
 """Which floor a learned method cleared: P(method > reference) against the uniform chooser over
 its action set, drawn every control step (SPEC 6's floor) and held for the shipped policies'
-decision period (docs/design.md#methods).
+decision period (docs/design/methods.md#methods).
 
 A floor is cleared when the lower end of the 95 % interval of P(A > floor) over the tasks the
 two share is above 0.5 (:func:`seed_tables.improvement`, its "all" record). A floor that is not
@@ -9,7 +9,7 @@ in the results, or shares no task with the method yet, is left out. Pure: result
 A parameter chooser from outside the package gets the floors of its declared action set and
 decision period (``external.resolve.external_floors``); a velocity planner from outside has no
 action set, so no floor: its row says so and is read against DWA III, the reference
-(docs/design.md#external-methods). An external method that cannot be resolved here (its
+(docs/design/external-methods.md#external-methods). An external method that cannot be resolved here (its
 package not installed) is left out.
 """
 
@@ -28,7 +28,7 @@ FLOORS_NOTE = (
     "(`random`, `random-weights`) and held for the shipped policies' decision period "
     "(`random@10`, `random-weights@10`: 1 s). P(method > floor) over the tasks both ran, 95 % "
     "stratified bootstrap over runs; a floor is cleared when the interval's lower end is above "
-    "0.5 (docs/design.md#floors). A chooser from outside the package: the uniform chooser over "
+    "0.5 (docs/design/methods.md#floors). A chooser from outside the package: the uniform chooser over "
     "its declared action set, every step and held for its declared period; a velocity planner "
     "has no action set and is read against DWA III (`dwa3`), the reference."
 )
@@ -83,7 +83,7 @@ def floor_records(rows: Sequence[Mapping[str, Any]], methods: Sequence[str]) -> 
 def floor_table(records: Sequence[Mapping[str, Any]]) -> str:
     """One row per learned method and floor: P(method > floor) with its interval, and whether
     it cleared that floor. A row per floor keeps the table narrow however long a method's
-    label (docs/design.md#page-width); the method is named on its first row."""
+    label (docs/design/metrics.md#page-width); the method is named on its first row."""
     if not records:
         return ""
     lines = [

@@ -93,7 +93,7 @@ class Job:
         return log_name(self.key)
 
     def row(self, result: EpisodeResult, v_max: float) -> dict[str, Any]:
-        """The CSV row of this job's result, scored (docs/design.md#score) with the world's
+        """The CSV row of this job's result, scored (docs/design/score.md#score) with the world's
         reference length and v_max, the robot's top speed (m/s)."""
         summary = result.summary()
         return (

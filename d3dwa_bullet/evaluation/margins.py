@@ -1,6 +1,6 @@
 """Equivalence margins: how close two methods must be to read as equivalent, per metric.
 
-A margin is stated before a run (docs/design.md#readings) in its metric's own units: success
+A margin is stated before a run (docs/design/readings.md#readings) in its metric's own units: success
 as a fraction (the command line takes points), the scores in [0, 1]. The defaults mean
 something to a user: 3 success points; 0.03 of the robot-scaled score (a few per cent of a
 typical success's score); 0.01 of BARN's official score (about 6 % of the challenge's DWA

@@ -1,5 +1,5 @@
 """Pages within their width budget: at most :data:`PAGE_WIDTH` characters a line, however many
-worlds (docs/design.md#page-width). A page is split to fit, never joined.
+worlds (docs/design/metrics.md#page-width). A page is split to fit, never joined.
 
 - Prose: a line longer than the budget is split at spaces (:func:`fit_prose`, ``textwrap``);
   Markdown joins the lines of a paragraph back, so the page reads the same.
@@ -152,7 +152,7 @@ def world_table(
     if len(worlds) > many:
         note = (
             f"Per-world cells of these {len(worlds)} worlds: results.csv (one row per episode); "
-            f"a page lists at most {many} worlds (docs/design.md#page-width).\n"
+            f"a page lists at most {many} worlds (docs/design/metrics.md#page-width).\n"
         )
         if not tail:
             return note

@@ -11,7 +11,7 @@ side's success averaged over its training and evaluation seeds there: fewer unit
 conservative test. The differences A - B over the units go
 to the Wilcoxon signed-rank test (``scipy.stats.wilcoxon``, one-sided: A > B; units where the
 two agree are dropped, ``zero_method="wilcox"``). A p-value below 0.05 says A's success is
-higher on these layouts than chance pairing would give (docs/design.md#paired-test).
+higher on these layouts than chance pairing would give (docs/design/learning-protocol.md#paired-test).
 
 The scores may be any per-episode metric of :data:`METRICS` (success, the score, BARN's
 official score): :mod:`d3dwa_bullet.evaluation.readings` reads their mean difference as one of

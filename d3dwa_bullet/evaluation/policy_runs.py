@@ -1,7 +1,7 @@
 """Which policies an evaluation runs: every shipped training seed of each learned method.
 
 A learned method's result is its distribution over training seeds
-(docs/design.md#learning-protocol), so an evaluation drives every ``seed-<k>/`` of the
+(docs/design/learning-protocol.md#learning-protocol), so an evaluation drives every ``seed-<k>/`` of the
 method's policy folder (``policies/<method>/``, or ``--policy DIR``) unless
 ``--policy-seeds`` names some of them. A folder without seed folders is one policy (a
 checkpoint, or one ``seed-<k>`` folder given as ``--policy``). A fixed or reference method

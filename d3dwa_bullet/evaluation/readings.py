@@ -3,7 +3,7 @@
 The unit is the layout under one noise profile: each side's value there (success, the score
 or BARN's official score, :data:`~d3dwa_bullet.evaluation.paired.METRICS`) averaged over its
 training seeds and evaluation seeds (``paired.paired_scores(..., by_seed=False)``). Over the n
-layouts both ran, the differences d = A - B give (docs/design.md#readings):
+layouts both ran, the differences d = A - B give (docs/design/readings.md#readings):
 
 - the mean difference with its 95 % Student-t interval (``scipy.stats.ttest_1samp`` on d,
   the paired t-test);

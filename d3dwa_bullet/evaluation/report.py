@@ -113,7 +113,7 @@ def eval_markdown(
         "Intervals: 95 % stratified bootstrap over runs "
         "(scipy.stats.bootstrap, percentile); time is the interquartile mean of the runs' "
         "mean time to goal; *all* averages the worlds. Score: per episode success x t_ref / "
-        "clip(t, t_ref, 8 t_ref), t_ref = L / v_max, L the route length (docs/design.md#score); "
+        "clip(t, t_ref, 8 t_ref), t_ref = L / v_max, L the route length (docs/design/score.md#score); "
         "a run's score is its episodes' mean. Each training seed's row: table_seeds.md.\n\n"
         + seed_tables(rows, methods, worlds, mark=mark)
         + "\n"
@@ -147,7 +147,7 @@ def seeds_markdown(
         f"# Per training seed: {world_span(worlds)}\n\n{tw.training_lines(training, worlds)}"
         "Cells: successes/episodes, mean time to goal of the successes; T = timeout, "
         "C = collision. Score, BARN: the mean episode score over every world (robot form, "
-        "BARN's official form; docs/design.md#score).\n\n"
+        "BARN's official form; docs/design/score.md#score).\n\n"
         + per_seed_table(rows, methods, worlds, tw.cell_mark(tw.trained_worlds(training)))
     )
 

@@ -6,7 +6,7 @@ A results directory holds (and, while a command writes it, ``.d3dwa.lock``: see
     meta.json          format version, package version, episode config, the command's
                        settings and the key of every job of the last run (what "complete" means)
     results.csv        one row per finished episode, with its score (SCORE_FIELDS,
-                       docs/design.md#score): appended as episodes finish, then, once every
+                       docs/design/score.md#score): appended as episodes finish, then, once every
                        job of the run is in, rewritten in the order the jobs were listed
     logs/*.npz         the per-step log of every episode (pose, command, weights, tau, obs)
     table.md           Table I layout, written only once every episode is in results.csv
@@ -58,7 +58,7 @@ UNSCORED_FORMAT = 3
 """The format before the score: still read (its rows' score columns are None, tables say so)
 and, resumed by eval or sweep, brought to RESULTS_FORMAT by scoring its rows (scores.py)."""
 SCORE_FIELDS = ("score", "score_barn", "reference_length_m")
-"""The score columns (docs/design.md#score): robot form, BARN's official form, and L, m."""
+"""The score columns (docs/design/score.md#score): robot form, BARN's official form, and L, m."""
 CSV_FIELDS = (
     "world",
     "method",

@@ -337,5 +337,5 @@ def reused_note(settings: Mapping[str, Any]) -> str:
         return ""
     return (
         "; ".join(lines) + ". A reused episode whose directory kept no per-step log has none "
-        "here either: trajectory figures leave it out (docs/design.md#reuse).\n\n"
+        "here either: trajectory figures leave it out (docs/design/metrics.md#reuse).\n\n"
     )

@@ -1,4 +1,4 @@
-"""The episode score in the tables (docs/design.md#score): over runs, with 95 % intervals.
+"""The episode score in the tables (docs/design/score.md#score): over runs, with 95 % intervals.
 
 Per run (a learned method's training seed, a fixed method's evaluation seed: see
 :mod:`~d3dwa_bullet.evaluation.seed_tables`), the mean score of its episodes (a failure

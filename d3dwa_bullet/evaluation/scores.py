@@ -1,4 +1,4 @@
-"""The score columns of results rows (docs/design.md#score), and scoring a directory made before.
+"""The score columns of results rows (docs/design/score.md#score), and scoring a directory made before.
 
 A row's ``score`` (robot form, ``SCORE_FORM``) is a function of three of its own cells
 (outcome, time_s, reference_length_m) and of the run's v_max (meta.json's episode config);

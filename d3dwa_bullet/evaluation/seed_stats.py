@@ -1,4 +1,4 @@
-"""Statistics over training seeds (docs/design.md#learning-protocol), pure numpy and SciPy.
+"""Statistics over training seeds (docs/design/learning-protocol.md#learning-protocol), pure numpy and SciPy.
 
 A method's result is a distribution over training runs, so every interval here resamples
 *training seeds*: a run's own evaluation episodes are averaged into one score per seed

@@ -10,7 +10,7 @@ seeds, not only between episodes.
 - success: per run, the fraction of its episodes that reached the goal;
 - time: per run, the mean time to goal of its successful episodes (runs without a success
   have none), summarised as the interquartile mean (IQM) over runs;
-- score: per run, the mean episode score (docs/design.md#score; failures score 0), in
+- score: per run, the mean episode score (docs/design/score.md#score; failures score 0), in
   :mod:`~d3dwa_bullet.evaluation.score_tables`;
 - improvement: P(A > B), the chance that a run of A has a higher success score than a run
   of B on a task (ties half), averaged over tasks (Agarwal et al., 2021).

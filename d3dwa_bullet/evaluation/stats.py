@@ -60,7 +60,7 @@ class CellStats:
     time_lo: float
     time_hi: float
     score_mean: float = math.nan
-    """Mean episode score, robot form (docs/design.md#score); nan for rows without a score."""
+    """Mean episode score, robot form (docs/design/score.md#score); nan for rows without a score."""
     score_barn_mean: float = math.nan
     """Mean episode score, BARN's official form; nan for rows without a score."""
 

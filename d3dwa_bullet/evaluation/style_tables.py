@@ -55,6 +55,6 @@ def style_section(
         "rows above). Success rate [%] averaged over a style's layouts, 95 % stratified "
         "bootstrap over runs.\n\n"
         + condition_table(generated, methods, columns, column_of, styles, group, flag=flag)
-        + "\nThe score (docs/design.md#score) per style, as above.\n\n"
+        + "\nThe score (docs/design/score.md#score) per style, as above.\n\n"
         + score_condition_tables(generated, methods, columns, column_of, styles, group, flag)
     )

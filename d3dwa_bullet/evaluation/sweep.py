@@ -288,7 +288,7 @@ def sweep_markdown(
     parts = [
         training_lines(training, settings.worlds),
         "Cells: successes/episodes, mean time to goal of the successes ± half-width of the "
-        "95 % t-interval; then the mean episode score (docs/design.md#score). Layouts: "
+        "95 % t-interval; then the mean episode score (docs/design/score.md#score). Layouts: "
         + "; ".join(f"*{k}* = {v}" for k, v in titles.items())
         + ".\n",
     ]
@@ -317,7 +317,7 @@ def sweep_markdown(
         )  # fmt: skip
         parts.append(
             "\n### Named profiles: score over training seeds\n\nPer run the mean episode "
-            "score (docs/design.md#score), averaged over the layouts of a group; 95 % "
+            "score (docs/design/score.md#score), averaged over the layouts of a group; 95 % "
             "stratified bootstrap over runs.\n\n"
         )
         parts.append(

@@ -123,11 +123,11 @@ def run_notes(recovery: str, policy_notes: Sequence[str] = (), scan_filter: str 
     each policy brought with ``--policy`` (``policy_config``)."""
     layer = (
         f"**Recovery layer `{recovery}`** (beyond the paper: progress checker and recovery "
-        "behaviours around every method, docs/design.md#recovery).\n\n"
+        "behaviours around every method, docs/design/recovery.md#recovery).\n\n"
     )
     cleaned = (
         f"**Scan filter `{scan_filter}`** (beyond the paper: every method's scan filtered "
-        "before the observation and the planner, docs/design.md#scan-filter).\n\n"
+        "before the observation and the planner, docs/design/scan-filter.md#scan-filter).\n\n"
     )
     return (
         (layer if recovery != "none" else "")

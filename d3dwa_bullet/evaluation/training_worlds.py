@@ -5,7 +5,7 @@ So when a learned method's policy (any training seed) records BARN training worl
 (``learning.agents.barn_record``), every page of the evaluation says in one line how many of
 which split it trained on, each cell of a per-world table for that method on one of those worlds
 carries :data:`MARK`, and a BARN split or tercile row says how many of its worlds are training
-worlds (docs/design.md#barn-training). ``challenge`` worlds are never trained on, so a
+worlds (docs/design/training.md#barn-training). ``challenge`` worlds are never trained on, so a
 challenge-only page has the line and no mark.
 
 ``d3dwa eval`` and ``d3dwa sweep`` read the records from the policy folders before any episode

@@ -1,4 +1,4 @@
-"""Methods from outside the package (docs/design.md#external-methods): the versioned protocol
+"""Methods from outside the package (docs/design/external-methods.md#external-methods): the versioned protocol
 (:mod:`.protocol`), resolving a name to a class (:mod:`.resolve`) and the guarded controller
 that runs it (:mod:`.guard`). Only the protocol is re-exported: importing it stays cheap."""
 

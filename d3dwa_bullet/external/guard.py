@@ -1,5 +1,5 @@
 """Running a method from outside the package as a controller, with every answer checked
-(docs/design.md#external-methods).
+(docs/design/external-methods.md#external-methods).
 
 :class:`ExternalController` is the built-in :class:`~d3dwa_bullet.planning.controller.Controller`
 with the method's calls in place of a policy (a chooser) or of the DWA (a velocity planner).

@@ -1,5 +1,5 @@
 """The interface a method from outside the package implements, version 1
-(docs/design.md#external-methods).
+(docs/design/external-methods.md#external-methods).
 
 Two kinds, told apart by the one call each has:
 
@@ -63,7 +63,7 @@ class ParameterChooser(Protocol):
     actions: the action set it chooses from (one of the shipped sets: 100 actions of
     weights x horizon, or the 25 weight triples at a 4 s horizon, so its floors exist);
     hold: its decision period, control steps (1: every step); observation: the kind it reads
-    (``paper``: the 12-d state of docs/design.md#observation)."""
+    (``paper``: the 12-d state of docs/design/observation.md#observation)."""
 
     actions: ActionSet
     hold: int

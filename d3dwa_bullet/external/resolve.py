@@ -1,5 +1,5 @@
 """A method's name -> the class from outside the package that implements it, checked against
-the interface it declares (docs/design.md#external-methods).
+the interface it declares (docs/design/external-methods.md#external-methods).
 
 ``package.module:Name`` imports the module and takes the class; any other name that is not
 built in is looked up among the installed entry points of ``d3dwa_bullet.methods``. Where it

@@ -1,5 +1,5 @@
 """A Stable-Baselines3 DQN saved as a ``.zip``, run greedily as a parameter chooser, without
-unpickling anything it holds (docs/design.md#external-methods).
+unpickling anything it holds (docs/design/external-methods.md#external-methods).
 
 An SB3 zip holds ``data`` (JSON, where every object that is not plain JSON is a base64
 cloudpickle) and ``policy.pth`` (a torch state dict). Loading it with ``DQN.load`` unpickles

@@ -1,7 +1,7 @@
 """The decision period: how many control steps one chosen action is held.
 
 The paper's agent decides every 0.1 s control step. Beyond the paper (off by default,
-docs/design.md#decision-period), an env made with ``decision_steps=k`` holds each action for
+docs/design/agent.md#decision-period), an env made with ``decision_steps=k`` holds each action for
 k control steps and sums their rewards, so one env step is one decision;
 ``info["control_steps"]`` says how many ran (fewer when the episode ends inside the
 period). The bound is ``limits.MAX_DECISION_STEPS``, the one the training config and a

@@ -4,7 +4,7 @@ The agent picks a discrete action (the DWA weights and horizon of this step); th
 plans with it and the robot drives one control period (``Episode.act``), then the robot
 senses (``Episode.observe``). Spaces:
 
-- observation: ``Box(12,)`` float32, the vector of docs/design.md#observation ``[d_g, theta_g, v, w,
+- observation: ``Box(12,)`` float32, the vector of docs/design/observation.md#observation ``[d_g, theta_g, v, w,
   l_1..l_8]`` with bounds d_g in [0, 1], theta_g, v, w in [-1, 1], sectors in [0, 1]; with
   ``observation="progress"`` ``Box(17,)``, five more entries in [0, 1] (``planning.progress``);
 - action: ``Discrete(100)`` (W = {1, 2, 3}, T = {2, 3, 4, 5} s), or ``Discrete(25)`` with
@@ -52,7 +52,7 @@ and sums their rewards (``learning.decision_period``).
 float or a bool is not truncated; ``reset`` refuses option keys outside ``tasks.RESET_OPTIONS``.
 
 ``recovery="nav2"`` (or a ``RecoveryParams``) puts the recovery layer around the agent, as
-``--recovery`` does for ``d3dwa run`` (docs/design.md#recovery): while it recovers it drives
+``--recovery`` does for ``d3dwa run`` (docs/design/recovery.md#recovery): while it recovers it drives
 and the action of that step is not used; ``info["recovery"]`` names the behaviour (else None).
 """
 

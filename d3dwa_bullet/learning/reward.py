@@ -1,4 +1,4 @@
-"""The per-step reward R = R1 + R2 + R3 (docs/design.md#reward, paper Eq. reward, r1-r3).
+"""The per-step reward R = R1 + R2 + R3 (docs/design/reward.md#reward, paper Eq. reward, r1-r3).
 
 R1 (outcome):   r_goal                    on reaching the goal (no step penalty, as in the paper)
                 r_coll + r_step           on a collision
@@ -8,7 +8,7 @@ R2 (goal):      +gc if the goal distance shrank, -gc if it grew, 0 if unchanged
 R3 (obstacle):  -oc if the nearest-obstacle distance shrank, +oc if it grew, 0 if unchanged
 Stall (beyond the paper, off by default): ``stall_penalty`` on a step that does not reach
                 the goal and ends more than ``stall_after`` s after the robot last made
-                progress (left a PROGRESS_RADIUS circle; docs/design.md#stall-penalty)
+                progress (left a PROGRESS_RADIUS circle; docs/design/reward.md#stall-penalty)
 
 Every term is multiplied by ``RewardParams.scale`` (1 for the tabular DQDWA baseline,
 1/100 for the D3QN agents). R2 and R3 apply on every step, terminal ones included. The

@@ -4,7 +4,7 @@ For every (s_t, a_t) a greedy episode visited, the learner predicts Q(s_t, a_t),
 episode then earns the discounted return G_t = sum_k gamma^k r_{t+k} from there to its end.
 A learner whose values track its returns has mean Q close to mean G over those pairs; one
 whose bootstrapped targets ran away (the overestimation of a max over many near-identical
-actions) has mean Q many times the most any episode can earn (docs/design.md#value-calibration).
+actions) has mean Q many times the most any episode can earn (docs/design/agent.md#value-calibration).
 
 The rule a pilot or a shipped seed is judged by (issue 29): the ratio mean Q / mean G lies
 in [0.67, 1.5]; where the mean return is under 0.1 in magnitude a ratio means little, so
@@ -132,7 +132,7 @@ def calibrate_by_outcome(
 
     A learner can track the returns of the paths it finishes and still value a stall (an
     episode that ends at the time limit) as if the goal were near; the pooled figure hides
-    which (docs/design.md#value-calibration).
+    which (docs/design/agent.md#value-calibration).
     """
     if len(outcomes) != len(q_taken):
         raise ValueError(

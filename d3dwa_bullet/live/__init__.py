@@ -1,4 +1,4 @@
-"""The live robot (SPEC section 10, docs/design.md#live): the closed loop on the Kachaka API
+"""The live robot (SPEC section 10, docs/design/live.md#live): the closed loop on the Kachaka API
 (``drive``), its safety (``safety``: clamp, staleness, watchdog), the client adapter
 (``link``), the message conversions (``messages``), a live run as a bag (``recording``) and
 the simulated Kachaka behind the same service (``sim_robot``, ``d3dwa serve``).

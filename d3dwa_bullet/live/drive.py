@@ -1,4 +1,4 @@
-"""The closed loop on a robot API (``d3dwa drive``, docs/design.md#live).
+"""The closed loop on a robot API (``d3dwa drive``, docs/design/live.md#live).
 
 Every control period: read the scan and odometry (+ wheel odometry and IMU where served),
 judge the episode, then the very decision of ``d3dwa replay`` and ``d3dwa run``

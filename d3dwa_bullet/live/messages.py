@@ -15,7 +15,7 @@ bit. Two encodings need care to stay exact:
   16 steps and the goal is reached in 249 steps instead of 255), so the exact command rides
   along as gRPC call metadata (``COMMAND_METADATA``, float.hex of v and w): the simulated
   Kachaka applies it when it agrees with the fractions to 1e-12, and a real Kachaka ignores
-  metadata it does not know (docs/design.md#live).
+  metadata it does not know (docs/design/live.md#live).
 
 Stamps are the messages' ``header.stamp_nsec`` (int ns, the robot's clock); 0 means unset.
 """

@@ -1,7 +1,7 @@
 """What keeps the live loop safe besides its ``finally: stop``: the command clamp, the
 staleness check of what the robot serves, the contract its sensors started with (the scan's
 layout and readings, odometry that makes physical sense), and a watchdog thread that stops
-the robot when the loop itself stalls (docs/design.md#live).
+the robot when the loop itself stalls (docs/design/live.md#live).
 
 The exits they add to the loop's own (goal, collision, timeout, an error, Ctrl-C) all end
 where every exit ends: in ``set_robot_stop``.

@@ -1,5 +1,5 @@
 """A simulated Kachaka behind the Kachaka API (``d3dwa serve``): the PyBullet simulator served
-over the official gRPC service, the subset the live loop uses (docs/design.md#live).
+over the official gRPC service, the subset the live loop uses (docs/design/live.md#live).
 
 What it serves, once per control period (a *snapshot*, all stamped alike):
 

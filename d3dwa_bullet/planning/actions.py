@@ -1,6 +1,6 @@
 """The discrete action space: one index -> DWA weights (wp, wc, ws) and horizon tau.
 
-An action is a tuple of the Cartesian product W^3 x T (docs/design.md#actions, paper Eq. action).
+An action is a tuple of the Cartesian product W^3 x T (docs/design/methods.md#actions, paper Eq. action).
 Only weight *ratios* matter to the planner (it maximises a weighted sum of criteria that
 are each normalised to [0, 1]), so the uniform triples (c, c, c) all describe the same
 planner; only the one with the smallest candidate is kept. With W = {1, 2, 3} this removes

@@ -6,7 +6,7 @@ action set, from a generator the episode seed seeds (:meth:`Controller.reset`); 
 method runs a greedy policy (any callable from an observation to an index). Any of them may
 keep each choice for a decision period of ``hold`` control steps. A chooser from outside the
 package implements the same surface (``actions``, ``hold``, ``observation``, ``reset``,
-``choose``: docs/design.md#external-methods); a velocity planner from outside replaces the DWA
+``choose``: docs/design/external-methods.md#external-methods); a velocity planner from outside replaces the DWA
 itself (``velocity``).
 
 Pure: numpy only. Building the controller of a method, its policy loaded from a checkpoint or
@@ -50,9 +50,9 @@ class Controller:
     the observation."""
     hold: int = 1
     """Control steps each chosen action is kept for: a policy trained with ``decision_steps``
-    k > 1 (beyond the paper, docs/design.md#decision-period) chooses every k steps."""
+    k > 1 (beyond the paper, docs/design/agent.md#decision-period) chooses every k steps."""
     scan_filter: str = "none"
-    """The scan filter its policy trained behind (beyond the paper, docs/design.md#scan-filter):
+    """The scan filter its policy trained behind (beyond the paper, docs/design/scan-filter.md#scan-filter):
     whatever drives it checks its own filter is this one (``check_driven_filter``)."""
     origin: str = ""
     """Where a method from outside the package came from (``module:Name (distribution
@@ -101,5 +101,5 @@ class Controller:
 
     def choose(self, obs: np.ndarray) -> int:
         """The action index of this step (-1 for a fixed method): the chooser protocol's call
-        (docs/design.md#external-methods)."""
+        (docs/design/external-methods.md#external-methods)."""
         return self(obs)[0]

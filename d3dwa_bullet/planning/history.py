@@ -1,4 +1,4 @@
-"""The history observation (docs/design.md#history-observation): pure, shared by the simulator's
+"""The history observation (docs/design/observation.md#history-observation): pure, shared by the simulator's
 episode loop, the bag replay and ``drive``.
 
 The ``history`` kind is the paper's 12-d state of this control step, the same 12 entries of the

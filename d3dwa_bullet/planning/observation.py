@@ -1,4 +1,4 @@
-"""The 12-d observation (docs/design.md#observation), one pure function for simulator and bags.
+"""The 12-d observation (docs/design/observation.md#observation), one pure function for simulator and bags.
 
 s = [d_g, theta_g, v, w, l_1..l_K]:
   d_g      goal distance clipped at goal_clip, divided by goal_clip        in [0, 1]

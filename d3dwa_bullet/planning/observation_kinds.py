@@ -1,4 +1,4 @@
-"""What a policy reads, by kind (docs/design.md#observation): the one home of the kinds, their
+"""What a policy reads, by kind (docs/design/observation.md#observation): the one home of the kinds, their
 entry names and the per-episode state each needs. Pure.
 
   paper     the 12-d state of ``planning.observation`` (SPEC 6)

@@ -1,9 +1,9 @@
-"""The Dynamic Window Approach (docs/design.md#planner), as one pure, vectorised function.
+"""The Dynamic Window Approach (docs/design/planner.md#planner), as one pure, vectorised function.
 
 Everything is in base_link at planning time: the robot sits at the origin facing +x,
 ``points`` are valid scan returns and ``goal`` is the goal, both in the body frame.
 
-Design choices the paper leaves open (docs/design.md#footprint and after):
+Design choices the paper leaves open (docs/design/planner.md#footprint and after):
 
 * Footprint: three circles of radius r = 0.15 m on the body axis (see
   :class:`~d3dwa_bullet.params.Footprint`) cover Kachaka's whole body. The clearance of a

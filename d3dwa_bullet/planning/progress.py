@@ -1,4 +1,4 @@
-"""The progress-aware observation (docs/design.md#progress-observation): pure, shared by the
+"""The progress-aware observation (docs/design/observation.md#progress-observation): pure, shared by the
 simulator's episode loop and the bag replay.
 
 The ``paper`` kind is the 12-d state of ``planning.observation``, unchanged. The ``progress``

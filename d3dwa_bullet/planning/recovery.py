@@ -4,7 +4,7 @@ Pure maths (numpy, no simulator): the episode loop, the Gymnasium env, the bag r
 live driver feed it the same things they feed the planner (the estimated pose and velocity,
 the valid scan points in base_link, the goal) and, while it recovers, drive its command
 instead of the planner's. Off by default: the paper's stack has no such layer
-(docs/design.md#recovery says what is kept from Nav2, what changed and why).
+(docs/design/recovery.md#recovery says what is kept from Nav2, what changed and why).
 
 * Progress (Nav2's SimpleProgressChecker): the robot must leave a circle of ``radius`` about
   the pose where it last made progress within ``window`` seconds, judged on the *estimated*
@@ -48,7 +48,7 @@ REST = (0.02, 0.1)
 """(|v| m/s, |w| rad/s) of the estimate below which the robot counts as at rest: a behaviour
 hands back only then (Nav2's behaviours end with a zero twist). Handed back turning at
 1 rad/s, the planner's dynamic window (+-0.3 rad/s a step) holds no way to stop, and under
-`harsh` its fallback then kept spinning and drove into an obstacle (docs/design.md#recovery)."""
+`harsh` its fallback then kept spinning and drove into an obstacle (docs/design/recovery.md#recovery)."""
 BRAKE_LIMIT = 1.0
 """A stop that the estimate has not confirmed after this long hands back anyway, s (at
 3 rad/s^2 a 1 rad/s turn stops in 0.33 s; the rest is latency and estimator lag)."""

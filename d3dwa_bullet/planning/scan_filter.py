@@ -1,5 +1,5 @@
 """Scan filters of the kind real robots run before a local planner (beyond the paper, off by
-default; docs/design.md#scan-filter).
+default; docs/design/scan-filter.md#scan-filter).
 
 A filter takes a :class:`~d3dwa_bullet.sim.scan.LaserScan` and returns one of the same shape,
 so the simulator, ``drive`` and ``replay`` share it: it sits between the lidar and everything

@@ -1,5 +1,5 @@
 """A velocity command in place of the DWA: what a velocity planner reads and how its (v, w)
-becomes a planning step (docs/design.md#external-methods).
+becomes a planning step (docs/design/external-methods.md#external-methods).
 
 A controller may carry a local planner of its own (``Controller.velocity``): a callable from
 :class:`PlannerInputs` to (v m/s, w rad/s). The episode, the bag replay and the live loop

@@ -1,4 +1,4 @@
-"""Pose and velocity estimation: an EKF over [x, y, yaw, v, w] (docs/design.md#estimator).
+"""Pose and velocity estimation: an EKF over [x, y, yaw, v, w] (docs/design/noise.md#estimator).
 
 Prediction is the unicycle model under constant (v, w), integrated exactly along the arc
 (:func:`~d3dwa_bullet.geometry.arc_step`) with its analytic Jacobian; process noise is
@@ -98,7 +98,7 @@ class _UnicycleEKF(ExtendedKalmanFilter):
     ``predict`` and ``update`` are filterpy's own equations, the same numpy and SciPy calls in
     the same order (so every estimate is bit-identical), without what this filter never
     reads: the prior and posterior copies, the deep copy of z and the argument checks. They
-    were a third of the filter's time (docs/design.md#estimator)."""
+    were a third of the filter's time (docs/design/noise.md#estimator)."""
 
     dt: float = 0.0
 

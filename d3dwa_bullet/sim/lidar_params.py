@@ -15,7 +15,7 @@ from d3dwa_bullet.sim.scan import Pose2D
 
 @dataclass(frozen=True)
 class LidarParams:
-    """Kachaka's 2D lidar as mounted in base_link (docs/design.md#lidar)."""
+    """Kachaka's 2D lidar as mounted in base_link (docs/design/robot.md#lidar)."""
 
     fov: float = math.radians(240.0)
     """Field of view, rad, centred forward."""

@@ -1,4 +1,4 @@
-"""The noise of one episode: per-episode errors and seeded per-step random streams (docs/design.md#noise-models).
+"""The noise of one episode: per-episode errors and seeded per-step random streams (docs/design/noise.md#noise-models).
 
 A :class:`NoiseModel` samples what a :class:`~d3dwa_bullet.sim.noise_config.NoiseConfig`
 asks for. Every model draws from its own ``numpy.random.Generator`` spawned from the

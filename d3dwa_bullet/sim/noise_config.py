@@ -1,4 +1,4 @@
-"""Noise configuration: what each sensor, actuation and physics noise model does (docs/design.md#noise-models).
+"""Noise configuration: what each sensor, actuation and physics noise model does (docs/design/noise.md#noise-models).
 
 Every model is configured by a frozen dataclass whose defaults switch it off; a
 :class:`NoiseConfig` holds one of each. Values are checked against ``PARAM_DOMAINS``

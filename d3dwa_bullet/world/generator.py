@@ -37,7 +37,7 @@ from d3dwa_bullet.world.reachability import footprint_reachable
 from d3dwa_bullet.world.routes import shortest_path
 
 START = (0.0, 0.0, 0.0)
-"""Every generated world starts at the origin facing +x (docs/design.md#worlds)."""
+"""Every generated world starts at the origin facing +x (docs/design/worlds.md#worlds)."""
 PLACEMENT_ATTEMPTS = 400
 """Draws per obstacle before the layout is abandoned and restarted."""
 LAYOUT_ATTEMPTS = 200

@@ -20,7 +20,7 @@ from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.routes import shortest_path
 
 #: Obstacle distance of a route start's base_link, m. The body's farthest corner is
-#: ~0.27 m from base_link (docs/design.md#footprint), so the whole body starts clear of everything.
+#: ~0.27 m from base_link (docs/design/planner.md#footprint), so the whole body starts clear of everything.
 ROUTE_START_CLEARANCE = 0.30
 #: Largest heading error of a route start against the route's direction, rad.
 ROUTE_START_HEADING = 0.5

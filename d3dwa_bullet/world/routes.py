@@ -4,7 +4,7 @@ Pure functions over a :class:`~d3dwa_bullet.world.model.World` and its
 :func:`~d3dwa_bullet.world.grid.clearance_field`, no simulator. Used to check that a world
 is passable and how long its shortest route is (``tools/experiments/check_worlds.py``), to
 reject impassable generated layouts, for route starts, by the oracle's route field, and for the
-length L of the episode score (:func:`reference_length`, docs/design.md#score).
+length L of the episode score (:func:`reference_length`, docs/design/score.md#score).
 Obstacles are inflated by the planner's r + m and the robot is a point at base_link
 (:mod:`~d3dwa_bullet.world.grid`).
 """
@@ -240,7 +240,7 @@ def geodesic_field(
 
 @functools.lru_cache(maxsize=1024)
 def reference_length(world: World) -> float:
-    """L of the robot form of the episode score (docs/design.md#score), m: the length of
+    """L of the robot form of the episode score (docs/design/score.md#score), m: the length of
     :func:`shortest_path` (base_link as a point, obstacles inflated by the planner's r + m),
     on every world, BARN's included (its published path, :func:`official_length`, is a grid
     path up to 3.6 m longer than the route the robot can drive);

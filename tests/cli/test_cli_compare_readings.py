@@ -1,4 +1,4 @@
-"""`d3dwa compare`'s readings (docs/design.md#readings) and what it prints when the two sides
+"""`d3dwa compare`'s readings (docs/design/readings.md#readings) and what it prints when the two sides
 share one layout (issue 58 item 2): hand-made results directories, no episode run."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Readings (docs/design.md#readings): the interval, the one-sided tests and TOST agree with
+"""Readings (docs/design/readings.md#readings): the interval, the one-sided tests and TOST agree with
 SciPy and statsmodels on constructed cases; each of the four readings is reached; the
 layouts that would decide give the power they name; the edge cases say why."""
 

@@ -1,4 +1,4 @@
-"""The score columns of results rows (docs/design.md#score): written on every row, read back
+"""The score columns of results rows (docs/design/score.md#score): written on every row, read back
 as None from a directory made before the score (and marked so in the tables), and added to
 such a directory exactly when eval resumes it."""
 

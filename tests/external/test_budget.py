@@ -1,4 +1,4 @@
-"""A method's budget (docs/design.md#external-methods): its declaration, checked, and the
+"""A method's budget (docs/design/external-methods.md#external-methods): its declaration, checked, and the
 guard's record of a call over it, on a clock the test moves by hand (no sleeping, no
 simulator)."""
 

@@ -1,6 +1,6 @@
 """A method from outside the package runs the very episode a built-in one does, cannot reach
 the episode's state through its inputs, and is refused when it answers wrongly
-(docs/design.md#external-methods)."""
+(docs/design/external-methods.md#external-methods)."""
 
 from __future__ import annotations
 

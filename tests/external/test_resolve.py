@@ -1,5 +1,5 @@
 """Resolving a method from outside the package: names, declarations and their refusals
-(docs/design.md#external-methods). No simulator runs here."""
+(docs/design/external-methods.md#external-methods). No simulator runs here."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """A Stable-Baselines3 DQN zip as a parameter chooser: read without unpickling, greedy as SB3's
 own ``predict``, its declared terms checked against the zip, hostile or truncated files refused
-in one line (docs/design.md#external-methods)."""
+in one line (docs/design/external-methods.md#external-methods)."""
 
 from __future__ import annotations
 

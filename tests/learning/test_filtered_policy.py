@@ -1,5 +1,5 @@
 """A policy trained behind a scan filter (``TrainConfig.scan_filter``, beyond the paper,
-docs/design.md#scan-filter) is driven only behind the same filter: its files record the filter
+docs/design/scan-filter.md#scan-filter) is driven only behind the same filter: its files record the filter
 (meta.json, config.json, the ONNX metadata), every controller built from it carries it, and
 ``run``, ``eval``/``sweep``, ``replay`` and ``drive`` refuse another one in one line before
 any step. A policy trained without a filter runs behind any (the filter applies to every

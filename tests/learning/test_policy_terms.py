@@ -1,5 +1,5 @@
 """A policy's decision period and the recovery layer it trained inside travel with its ONNX
-export (``learning/agents/policy_terms.py``, docs/design.md#decision-period): the export's
+export (``learning/agents/policy_terms.py``, docs/design/agent.md#decision-period): the export's
 controller holds each action as long as its torch checkpoint's and chooses the same ones, a
 file exported before they were recorded is the paper's agent, and a bad value, in the file
 or in the checkpoint, is one line naming the file, the key and the value."""

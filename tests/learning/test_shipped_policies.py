@@ -21,7 +21,7 @@ from d3dwa_bullet.resources import configs_dir
 from d3dwa_bullet.seed_dirs import seed_dirs
 
 MIN_SEEDS = 5
-"""The learning protocol's minimum (docs/design.md#learning-protocol)."""
+"""The learning protocol's minimum (docs/design/learning-protocol.md#learning-protocol)."""
 
 OBSERVATIONS = np.array(
     [

@@ -1,5 +1,5 @@
 """``d3dwa drive`` against ``d3dwa serve --lockstep`` is ``d3dwa run``: same outcome, steps and
-path, and the very same commands, bit for bit (docs/design.md#live).
+path, and the very same commands, bit for bit (docs/design/live.md#live).
 
 The clamp is set to the simulator's own limits (``--speed-limit 0.4,2.0``): with Kachaka's API
 limits (0.3 m/s) the clamp would change the commands ``run`` sends, which is what it is for.
@@ -104,7 +104,7 @@ def test_an_onnx_policy_drives_the_torch_episode(capsys, serve, tmp_path):
 
 
 def test_a_held_onnx_policy_drives_the_held_torch_episode(capsys, serve, tmp_path):
-    """A policy trained with decision_steps 10 (docs/design.md#decision-period), exported:
+    """A policy trained with decision_steps 10 (docs/design/agent.md#decision-period), exported:
     ``drive --onnx`` holds each action for 10 control steps, as ``run`` with its checkpoint
     does, and sends the same commands; asked every step, it would have sent others."""
     checkpoint = held_checkpoint(tmp_path / "held", decision_steps=10)

@@ -2,7 +2,7 @@
 outside the package is ``d3dwa run``: the same steps and commands, bit for bit; a planner
 that answers beyond the limits mid-run, or takes longer than its budget (on a clock the test
 moves by hand, realtime and lockstep), is refused in one line, and the robot stopped
-(docs/design.md#external-methods)."""
+(docs/design/external-methods.md#external-methods)."""
 
 from __future__ import annotations
 

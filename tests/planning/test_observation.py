@@ -1,4 +1,4 @@
-"""Observation (docs/design.md#observation) and the LaserScan record's REP-117 handling."""
+"""Observation (docs/design/observation.md#observation) and the LaserScan record's REP-117 handling."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The progress-aware observation (docs/design.md#progress-observation): the paper's 12-d state
+"""The progress-aware observation (docs/design/observation.md#progress-observation): the paper's 12-d state
 is unchanged bit for bit, and a robot that stands still no longer sees a fixed state."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """A fresh D3QN checkpoint that records a decision period and a training recovery layer, as a
-run trained with ``decision_steps`` and ``recovery`` would (docs/design.md#decision-period)."""
+run trained with ``decision_steps`` and ``recovery`` would (docs/design/agent.md#decision-period)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """A velocity planner from outside the package through a bag: ``record`` then ``replay``
 gives its recorded commands back, bit for bit, with and without the recovery layer around it
-(docs/design.md#external-methods)."""
+(docs/design/external-methods.md#external-methods)."""
 
 from __future__ import annotations
 

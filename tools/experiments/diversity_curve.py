@@ -2,7 +2,7 @@
 
 As ros_jackal draws it: one learned method (``d3dwa-barn`` by default) trained on K of BARN's
 250 train worlds (``d3dwa train --barn-worlds K``; nested, 5 in 50 in 250:
-docs/design.md#barn-training), every training seed evaluated on the 50 challenge worlds. Each
+docs/design/training.md#barn-training), every training seed evaluated on the 50 challenge worlds. Each
 point is ``K=EVALDIR``, a ``d3dwa eval`` results directory of the seeds trained on K worlds;
 ``--commands`` prints the training and evaluation commands that make them (each resumes where it
 stopped).

@@ -2,7 +2,7 @@
 
 A plan (docs/pilots/*/plan.md) fixes its cells, its margins and its rule before its sweep
 runs; this tool takes exactly those readings, once, at the plan's N: ``d3dwa compare``'s rule
-(docs/design.md#readings) on every cell, under each profile, paired by layout (each side
+(docs/design/readings.md#readings) on every cell, under each profile, paired by layout (each side
 averaged over its training and evaluation seeds there). It refuses a directory that is not
 finished: the plans read once, and a partial directory is a progress report, not an answer.
 
@@ -196,7 +196,7 @@ def markdown(records: Sequence[Mapping[str, Any]], plan: str) -> str:
     """A section per cell: its title (B named as the best fixed DWA where it is one), then
     ``readings_table`` with a row per (profile, metric)."""
     parts = [f"Readings of {plan}: paired by layout, each side averaged over its seeds there; "
-             "success in points (docs/design.md#readings).\n"]  # fmt: skip
+             "success in points (docs/design/readings.md#readings).\n"]  # fmt: skip
     cells: dict[tuple[str, str | bool], list[Mapping[str, Any]]] = {}
     for r in records:
         cells.setdefault((r["a"], "best_fixed_score" in r or r["b"]), []).append(r)

@@ -7,7 +7,7 @@ pair them): the observed mean difference, the sd of the differences, the layouts
 pilot, and the layouts a yardstick needs for 80 % power, for the one-sided paired t-test
 (alpha 0.025 each way) and for TOST against the margin (alpha 0.05), by the normal
 approximation with the observed mean and sd taken as the truth
-(``readings.plan_of``, docs/design.md#readings). The plan aims at the reading that needs the
+(``readings.plan_of``, docs/design/readings.md#readings). The plan aims at the reading that needs the
 fewer layouts. Margins are stated here, before the sweep, with the flags ``compare`` takes.
 
     python -m tools.experiments.power_plan runs/pilot --pair d3dwa,d3dwa-weights --pair d3dwa-dr,dwa3

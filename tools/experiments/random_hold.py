@@ -1,7 +1,7 @@
 """The `random` reference at a decision period, on the 33 layouts: a thin caller of the registry.
 
 The held reference is a method of the registry (``random@k``, ``random-weights@k``:
-docs/design.md#floors), in the default tables of ``d3dwa eval`` and ``d3dwa sweep``; this tool
+docs/design/methods.md#floors), in the default tables of ``d3dwa eval`` and ``d3dwa sweep``; this tool
 only runs it on R1-R3 and the 30 unseen generated layouts and counts goals per seed.
 
     python -m tools.experiments.random_hold --hold 10 --seeds 0,1,2
@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--recovery",
         default="none",
-        help="none (the paper's stack) or nav2 (docs/design.md#recovery)",
+        help="none (the paper's stack) or nav2 (docs/design/recovery.md#recovery)",
     )
     ap.add_argument("--reference", default="random", help=f"one of {', '.join(REFERENCE)}")
     ap.add_argument(

@@ -2,7 +2,7 @@
 
 One panel per metric (the robot score, then success in points), one line per cell (A vs B),
 one marker per profile. The shaded band is the equivalence margin (±δ): an interval inside it
-reads "equivalent", one clear of zero a difference (docs/design.md#readings). The marker says
+reads "equivalent", one clear of zero a difference (docs/design/readings.md#readings). The marker says
 the reading: filled for a difference, hollow for an equivalence, a cross for an inconclusive
 cell, so the figure and the tables cannot disagree.
 

@@ -14,7 +14,7 @@ only gathers them and reads each against the target the issue fixed (nothing is 
 P is the probability of improvement with its 95 % stratified bootstrap interval over training
 seeds; the paired p is the one-sided Wilcoxon signed-rank test paired by layout, as the issue
 asks (evaluation seeds pooled per layout; by (layout, evaluation seed) with ``--pair-by
-layout-seed``, docs/design.md#paired-test). Beside each paired p: how many layouts a test
+layout-seed``, docs/design/learning-protocol.md#paired-test). Beside each paired p: how many layouts a test
 would need for 80 % power if the per-layout differences were what these layouts show
 (``paired.units_for_power``), a planning figure for the yardstick, not a test. Success is the
 mean over layouts of each training seed's success there.

@@ -9,7 +9,7 @@
 Each seed's greedy policy runs one noise-free episode on each of R1-R3 and three fresh
 generated layouts (generator seeds 2^31 + 1000, never drawn in training or by the sweep's
 first layouts), scored by the training env's own reward at the seed's ``reward_scale``. Per seed
-it prints the value calibration (docs/design.md#value-calibration): the mean Q(s, a) of the
+it prints the value calibration (docs/design/agent.md#value-calibration): the mean Q(s, a) of the
 visited pairs against the discounted return they earned, at the seed's own gamma, with the
 ratio (or, where the mean return is under 0.1 in magnitude, the gap) and the verdict, pooled
 and split into the episodes that reached the goal and the rest (a stall valued as if the goal

@@ -1,6 +1,6 @@
 """Which BARN worlds a policy trained on: the one home of that record, written and read.
 
-A run with ``barn_split`` set (docs/design.md#barn-training) records in its checkpoint's
+A run with ``barn_split`` set (docs/design/training.md#barn-training) records in its checkpoint's
 meta.json ``metadata.barn = {"split": "train", "ids": [...]}`` (world numbers, in the order
 they were trained on); ``trainer`` writes it through :func:`barn_record`, and an evaluation
 reads it back through :func:`folder_barn_training` to say on its pages which worlds the policy

@@ -33,7 +33,7 @@ from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY
 
 
 def default_method(agent: Agent) -> str:
-    """The method name (docs/design.md#methods) an agent stands for, from its family and action set."""
+    """The method name (docs/design/methods.md#methods) an agent stands for, from its family and action set."""
     if isinstance(agent, DQDWAAgent):
         return "dqdwa"
     if agent.actions == ACTIONS_FULL:

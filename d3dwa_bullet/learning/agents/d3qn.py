@@ -1,4 +1,4 @@
-"""Dueling Double DQN (D3QN) over a discrete action set (docs/design.md#d3qn-agent, paper Eq. dueling, double).
+"""Dueling Double DQN (D3QN) over a discrete action set (docs/design/agent.md#d3qn-agent, paper Eq. dueling, double).
 
 Training loop contract (one control step)::
 

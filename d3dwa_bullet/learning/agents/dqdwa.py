@@ -1,7 +1,7 @@
 """DQDWA: tabular Q-learning over a hand-discretised state, the paper's baseline [10237217].
 
 The baseline's discretisation is not public; this one reads the 12-d observation of
-docs/design.md#observation and keeps four features, each in a few bins (defaults of ``Discretisation``):
+docs/design/observation.md#observation and keeps four features, each in a few bins (defaults of ``Discretisation``):
 
 =================  ====  ==========================================================
 feature            bins  definition

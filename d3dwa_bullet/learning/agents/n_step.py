@@ -1,4 +1,4 @@
-"""n-step transitions for the D3QN's replay (``D3QNConfig.n_step``; docs/design.md#n-step-returns).
+"""n-step transitions for the D3QN's replay (``D3QNConfig.n_step``; docs/design/agent.md#n-step-returns).
 
 Beyond the paper, off by default (``n_step: 1`` stores every transition as it comes, the
 paper's one-step Double DQN target). With ``n_step: n > 1`` each env's last transitions wait

@@ -1,5 +1,5 @@
 """What an ONNX policy's graph may hold, and what one inference of it costs: checked before
-onnxruntime sees the file (docs/design.md#onnx-policies).
+onnxruntime sees the file (docs/design/onnx.md#onnx-policies).
 
 A file is a program onnxruntime runs, and most ONNX operators make its run time or memory a
 function of the data (Loop, Scan, If, Expand, ConstantOfShape, Range, Resize, ...). A policy

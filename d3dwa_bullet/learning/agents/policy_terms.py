@@ -1,11 +1,11 @@
 """The terms a trained policy is driven on, as its files record them: its decision period,
 the recovery layer it trained inside and the scan filter it trained behind.
 
-A policy trained with ``decision_steps`` k > 1 (beyond the paper, docs/design.md#decision-period)
+A policy trained with ``decision_steps`` k > 1 (beyond the paper, docs/design/agent.md#decision-period)
 chose once per k control steps, so whatever drives it must hold each action as long
-(``planning.controller.Controller.hold``); one trained inside a recovery layer (docs/design.md#recovery)
+(``planning.controller.Controller.hold``); one trained inside a recovery layer (docs/design/recovery.md#recovery)
 met the states that layer leaves it, so a run without it is not the run it learned for.
-One trained behind a scan filter (docs/design.md#scan-filter) learned on filtered scans, so
+One trained behind a scan filter (docs/design/scan-filter.md#scan-filter) learned on filtered scans, so
 it is driven only behind the same filter (``planning.scan_filter.check_driven_filter``).
 All are read from a checkpoint's meta.json (``metadata.decision_steps``,
 ``metadata.recovery``, ``metadata.scan_filter``) and from an exported ONNX file's metadata

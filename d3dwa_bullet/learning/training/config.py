@@ -82,24 +82,24 @@ class TrainConfig:
     """Multiplies every reward term; None: 0.01 for the D3QN methods, 1.0 for dqdwa."""
     observation: str | None = None
     """What the agent reads, which must be the method's own: 'history' for d3dwa-history-dr
-    (docs/design.md#history-observation), 'paper' (the 12-d state) for the others; None: that.
+    (docs/design/observation.md#history-observation), 'paper' (the 12-d state) for the others; None: that.
     ('progress', 17-d, is an env kind no registered method reads.)"""
     stall_penalty: float = 0.0
     """Reward added (before reward_scale) to a step ending more than ``stall_after`` s after
-    the robot last made progress; 0: the paper's reward (docs/design.md#stall-penalty)."""
+    the robot last made progress; 0: the paper's reward (docs/design/reward.md#stall-penalty)."""
     stall_after: float = 5.0
     """Seconds without progress (ground truth, 0.5 m circle) before the stall penalty."""
     decision_steps: int = 1
     """Control steps (0.1 s) one action is held for; 1: the paper's. Beyond the paper, off by
-    default (docs/design.md#decision-period): with k > 1 an env step, ``total_steps``,
+    default (docs/design/agent.md#decision-period): with k > 1 an env step, ``total_steps``,
     ``eval_every``, ``checkpoint_every`` and the agent's gamma count decisions of k control
     steps, so a budget of N control steps is ``total_steps: N / k``."""
     recovery: str = "none"
     """Recovery layer in training and greedy evaluation: 'none' (the paper's) or 'nav2'
-    (beyond the paper: evaluate such a policy with ``--recovery nav2``; design.md#recovery)."""
+    (beyond the paper: evaluate such a policy with ``--recovery nav2``; design/recovery.md#recovery)."""
     scan_filter: str = "none"
     """Scan filter chain in training and greedy evaluation (``--scan-filter``'s names): "none"
-    (the paper's stack) or, beyond the paper, e.g. "speckle+median" (docs/design.md#scan-filter).
+    (the paper's stack) or, beyond the paper, e.g. "speckle+median" (docs/design/scan-filter.md#scan-filter).
     A policy trained with a filter is driven only with the same one (``policy_terms``)."""
     weights: tuple[float, ...] | None = None
     """Weight candidates W; None: the method's action set."""

@@ -6,7 +6,7 @@ with the ``eval_noise`` profile. Evaluation worlds are training worlds (or gener
 layouts): the evaluation-only groups stay unseen. The best evaluation so far (success
 rate, then fewer collisions, then mean return) is what ``keep: best`` ships.
 
-Every evaluation also measures value calibration (docs/design.md#value-calibration): the
+Every evaluation also measures value calibration (docs/design/agent.md#value-calibration): the
 agent's mean Q over the (s, a) pairs its greedy episodes visited, against the discounted
 return those pairs went on to earn, with the agent's own gamma.
 """

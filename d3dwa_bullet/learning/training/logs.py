@@ -205,7 +205,7 @@ def learning_curve(
 ) -> Path:
     """Return and success rate vs env steps (training rolling means + greedy evaluations),
     and the greedy evaluations' value calibration: mean Q of the pairs they visited against
-    the discounted return those pairs earned (docs/design.md#value-calibration)."""
+    the discounted return those pairs earned (docs/design/agent.md#value-calibration)."""
     rows = read_episodes(out)
     evals = read_metrics(out, "eval/success_rate")
     eval_returns = read_metrics(out, "eval/mean_return")

@@ -1,6 +1,6 @@
 """Training one config over several seeds: ``<out>/seed-<k>/`` per seed, resumable per seed.
 
-A method's result is its distribution over training seeds (docs/design.md#learning-protocol),
+A method's result is its distribution over training seeds (docs/design/learning-protocol.md#learning-protocol),
 so ``d3dwa train --config C --seeds 0-4 --out runs/NAME`` trains every seed of one committed
 config into its own run directory, one after the other (each run already uses every core).
 With ``--resume`` a seed whose run is complete is skipped, one with a checkpoint continues

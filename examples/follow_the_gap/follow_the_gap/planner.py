@@ -5,7 +5,7 @@ grown by the robot's radius; the free bearings in front form gaps. The planner h
 goal's bearing when it is free, else for the free bearing closest to it, and turns on the
 spot when nothing in front is free. Speed falls with the heading error and with the nearest
 obstacle ahead. It implements the testbed's velocity planner interface, version 1
-(d3dwa-bullet docs/design.md#external-methods): ``reset(seed)`` and ``command(inputs)``.
+(d3dwa-bullet docs/design/external-methods.md#external-methods): ``reset(seed)`` and ``command(inputs)``.
 """
 
 from __future__ import annotations
