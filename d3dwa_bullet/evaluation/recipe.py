@@ -41,7 +41,7 @@ from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.paired import Row, metric_value
 from d3dwa_bullet.evaluation.readings import ALPHA, read_differences, reading_rule
 
-RECIPE_WHY = "the recipe: `power_plan --recipe` sizes the seeds and layouts that would decide"
+RECIPE_WHY = "seeds and layouts to decide: power_plan --recipe"
 """Why an inconclusive recipe-level reading names no N: it needs seeds as well as layouts."""
 
 
@@ -157,12 +157,13 @@ def seed_layout_tables(
 ) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """(A's table (S_A, L), B's table (S_B, L), the L layouts, sorted): each cell the mean of
     metric over that training seed's rows on that layout (one row for a fixed side), over the
-    layouts every seed of both sides ran. A missing metric is NaN. Rows of one noise profile."""
+    layouts every seed of both sides ran; a layout is a (world, noise), as in today's unit.
+    A missing metric is NaN."""
     cells: dict[str, dict[tuple[str, str], list[float]]] = {a: {}, b: {}}
     for r in rows:
         if r["method"] in cells:
             v = metric_value(r, metric)
-            key = (str(r.get("policy_seed")), str(r["world"]))
+            key = (str(r.get("policy_seed")), f"{r['world']} ({r['noise']})")
             cells[r["method"]].setdefault(key, []).append(np.nan if v is None else v)
     seeds = {m: sorted({s for s, _ in c}) for m, c in cells.items()}
     shared = None
