@@ -41,7 +41,7 @@ from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.paired import Row, metric_value
 from d3dwa_bullet.evaluation.readings import ALPHA, read_differences, reading_rule
 
-RECIPE_WHY = "seeds and layouts to decide: power_plan --recipe"
+RECIPE_WHY = "seeds and layouts to decide: recipe_sizing"
 """Why an inconclusive recipe-level reading names no N: it needs seeds as well as layouts."""
 
 
@@ -152,50 +152,70 @@ def check_recipe_side(rows: Sequence[Row], method: str) -> list[str]:
     return seeds
 
 
+Cells = dict[tuple[str, str], float]
+"""One side's per-cell means: (training seed, layout) -> the metric's mean; a fixed side's seed
+is '' (or 'None'); a layout is a (world, noise), as in today's unit."""
+
+
+def cell_means(rows: Sequence[Row], method: str, metric: str) -> Cells:
+    """method's per-cell means of metric over the rows (a missing value is NaN)."""
+    cells: dict[tuple[str, str], list[float]] = {}
+    for r in rows:
+        if r["method"] == method:
+            v = metric_value(r, metric)
+            key = (str(r.get("policy_seed")), f"{r['world']} ({r['noise']})")
+            cells.setdefault(key, []).append(np.nan if v is None else v)
+    return {k: float(np.mean(v)) for k, v in cells.items()}
+
+
+def tables_of(ca: Cells, cb: Cells) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """(A's table (S_A, L), B's table (S_B, L), the L layouts, sorted) over the layouts every
+    seed of both sides ran; rows in the seeds' sorted order."""
+    seeds = [sorted({s for s, _ in c}) for c in (ca, cb)]
+    shared = None
+    for c, mine in zip((ca, cb), seeds, strict=True):
+        full = {w for _, w in c if all((s, w) in c for s in mine)}
+        shared = full if shared is None else shared & full
+    layouts = sorted(shared or ())
+    ta, tb = (np.array([[c[(s, w)] for w in layouts] for s in mine]).reshape(-1, len(layouts))
+              for c, mine in zip((ca, cb), seeds, strict=True))  # fmt: skip
+    return ta, tb, layouts
+
+
 def seed_layout_tables(
     rows: Sequence[Row], a: str, b: str, metric: str
 ) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """(A's table (S_A, L), B's table (S_B, L), the L layouts, sorted): each cell the mean of
-    metric over that training seed's rows on that layout (one row for a fixed side), over the
-    layouts every seed of both sides ran; a layout is a (world, noise), as in today's unit.
-    A missing metric is NaN."""
-    cells: dict[str, dict[tuple[str, str], list[float]]] = {a: {}, b: {}}
-    for r in rows:
-        if r["method"] in cells:
-            v = metric_value(r, metric)
-            key = (str(r.get("policy_seed")), f"{r['world']} ({r['noise']})")
-            cells[r["method"]].setdefault(key, []).append(np.nan if v is None else v)
-    seeds = {m: sorted({s for s, _ in c}) for m, c in cells.items()}
-    shared = None
-    for m, c in cells.items():
-        worlds = {w for _, w in c}
-        full = {w for w in worlds if all((s, w) in c for s in seeds[m])}
-        shared = full if shared is None else shared & full
-    layouts = sorted(shared or ())
-    tables = [
-        np.array([[np.mean(cells[m][(s, w)]) for w in layouts] for s in seeds[m]]).reshape(
-            -1, len(layouts)
-        )
-        for m in (a, b)
-    ]
-    return tables[0], tables[1], layouts
+    """:func:`tables_of` the two sides' :func:`cell_means` in these rows."""
+    return tables_of(cell_means(rows, a, metric), cell_means(rows, b, metric))
+
+
+def learned(cells: Cells) -> bool:
+    """Whether a side's cells carry training seeds (a learned method)."""
+    return any(s not in ("", "None") for s, _ in cells)
 
 
 def both_readings(
     rows: Sequence[Row], a: str, b: str, metric: str, margin: float
 ) -> dict[str, dict[str, Any]]:
-    """{"policies": record, "recipe": record} for one cell's rows under one profile: each
-    :func:`read_estimate`'s record with "metric", "layouts", "mean_a", "mean_b", "seeds_a",
-    "seeds_b"; "recipe" is absent when neither side is learned (no seed to be random).
-    ResultsError naming a learned side with one training seed."""
-    seeds = {m: check_recipe_side(rows, m) for m in (a, b)}
-    ta, tb, layouts = seed_layout_tables(rows, a, b, metric)
-    n = len(layouts)
-    base = {"metric": metric, "layouts": n, "seeds_a": len(seeds[a]), "seeds_b": len(seeds[b]),
-            "mean_a": float(ta.mean()) if n else None, "mean_b": float(tb.mean()) if n else None,
-            "needed": None}  # fmt: skip
+    """:func:`read_cells` of one cell's rows under one profile. ResultsError naming a learned
+    side with one training seed."""
+    for m in (a, b):
+        check_recipe_side(rows, m)
+    return read_cells(cell_means(rows, a, metric), cell_means(rows, b, metric), metric, margin)
+
+
+def read_cells(ca: Cells, cb: Cells, metric: str, margin: float) -> dict[str, dict[str, Any]]:
+    """{"policies": record, "recipe": record} for one cell's per-cell means: each
+    :func:`read_estimate`'s record (these policies': ``readings.read_differences``') with
+    "metric", "layouts", "mean_a", "mean_b", "seeds_a", "seeds_b" (0 for a fixed side);
+    "recipe" is absent when neither side is learned (no seed to be random)."""
+    ta, tb, layouts = tables_of(ca, cb)
+    n, is_learned = len(layouts), (learned(ca), learned(cb))
+    base = {"metric": metric, "layouts": n, "seeds_a": ta.shape[0] * is_learned[0],
+            "seeds_b": tb.shape[0] * is_learned[1], "needed": None,
+            "mean_a": float(ta.mean()) if n else None, "mean_b": float(tb.mean()) if n else None}  # fmt: skip
     out: dict[str, dict[str, Any]] = {}
-    for q in ("policies", "recipe") if seeds[a] or seeds[b] else ("policies",):
+    for q in ("policies", "recipe") if any(is_learned) else ("policies",):
         if n < 2:
             out[q] = base | {"margin": margin, "reading": "inconclusive", "equivalent": None,
                              "difference": None, "why": f"{n} shared layouts: a reading needs 2 or more"}  # fmt: skip

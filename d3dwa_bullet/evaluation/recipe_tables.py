@@ -22,7 +22,13 @@ from d3dwa_bullet.evaluation.multiplicity import holm
 from d3dwa_bullet.evaluation.page_width import fit_prose, split_columns
 from d3dwa_bullet.evaluation.paired import Row
 from d3dwa_bullet.evaluation.readings import metric_text, readings_table
-from d3dwa_bullet.evaluation.recipe import both_readings, check_recipe_side
+from d3dwa_bullet.evaluation.recipe import (
+    Cells,
+    both_readings,
+    cell_means,
+    check_recipe_side,
+    read_cells,
+)
 from d3dwa_bullet.evaluation.style_tables import style_of
 from d3dwa_bullet.world.barn_difficulty import TERCILE_GROUPS
 
@@ -56,15 +62,30 @@ def read_families(
         fam = family_of(r)
         if fam is not None:
             by[(r["noise"], r["method"], fam)].append(r)
+    for m in dict.fromkeys(m for a, b, _ in cells for m in (a, b)):
+        check_recipe_side(rows, m)
+    means: dict[tuple[str, str, str, str], Cells] = {}
+
+    def side(profile: str, method: str, fams: Sequence[str], metric: str) -> Cells:
+        out: Cells = {}
+        for f in fams:
+            key = (profile, method, f, metric)
+            if key not in means:
+                means[key] = cell_means(by.get(key[:3], ()), method, metric)
+            out |= means[key]
+        return out
+
     out = []
     for a, b, profile in cells:
         for fam in (*FAMILIES, POOLED):
             names = FAMILIES if fam == POOLED else (fam,)
-            here = [r for m in (a, b) for f in names for r in by.get((profile, m, f), ())]
-            if not any(r["method"] == a for r in here) or not any(r["method"] == b for r in here):
+            if not all(by.get((profile, m, f)) for m in (a, b) for f in names if fam != POOLED):
                 continue
             for metric, margin in margins.items():
-                for q, rec in both_readings(here, a, b, metric, margin).items():
+                ca, cb = (side(profile, m, names, metric) for m in (a, b))
+                if not ca or not cb:
+                    continue
+                for q, rec in read_cells(ca, cb, metric, margin).items():
                     out.append(
                         {"a": a, "b": b, "profile": profile, "family": fam, "question": q} | rec
                     )
@@ -120,6 +141,12 @@ def family_table(
     title = f"**{QUESTIONS[question]}**: {metric} (margin {margin}){unit}; {adjusted}."
     return f"{title}\n\n{split_columns(head, ['---'] * len(head), body, keys=2)}"
 
+
+RECIPE_NOTE = (
+    "seeds and layouts crossed, both random; 95 % interval on Satterthwaite df; p-values unadjusted; "
+    "docs/design/readings-recipe.md"
+)
+"""How a plan tool's recipe table is read, in its heading."""
 
 LEGEND = (
     "**A**: A better, **B**: B better, eq.: equivalent within the margin, inc.: inconclusive; "
@@ -187,3 +214,26 @@ def recipe_section(
         "(docs/design/readings-recipe.md).\n"
     )
     return fit_prose(head) + "\n" + readings_table(readings, trained_on)
+
+
+def families_page(
+    records: Sequence[Mapping[str, Any]], margins: Mapping[str, float], plan: str
+) -> str:
+    """The per-family page of a plan's cells: for each metric of margins (the headline score
+    first), the recipe's table and these policies', each per family and Holm-adjusted, then
+    the pooled rows of both questions, marked secondary; the legend last."""
+    order = sorted(margins, key=lambda m: m != "score")
+    parts = [
+        f"Readings of {plan} per world family, both questions (docs/design/readings-recipe.md). The headline "
+        "is the recipe, per family; the pool of both families is secondary. An interval is the unadjusted 95 % "
+        "one; a reading is taken on the Holm-adjusted p-values, so a cell can read inconclusive while its "
+        "interval excludes 0.\n"
+    ]
+    for metric in order:
+        parts.append(f"## {metric}\n")
+        parts += [family_table(records, q, metric) + "\n" for q in QUESTIONS]
+    parts.append("## The pool of both families (secondary)\n")
+    for metric in order:
+        parts += [family_table(records, q, metric, pooled=True) + "\n" for q in QUESTIONS]
+    parts.append(LEGEND)
+    return fit_prose("\n".join(p for p in parts if p.strip())) + "\n"

@@ -16,46 +16,11 @@ from d3dwa_bullet.evaluation.recipe import (
     recipe_arrays,
     recipe_estimate,
 )
+from tools.experiments.recipe_coverage import CASES, REPLICATES, coverage, simulate
 
-REPLICATES = 4000
 MC_ERROR = 2 * np.sqrt(0.05 * 0.95 / REPLICATES)
 """Two Monte Carlo standard errors of a 5 % rate over REPLICATES (0.7 points)."""
-
-
-def _simulate(
-    seeds, layouts, sd_seed_a, sd_seed_b, sd_layout, sd_resid, fixed_b=False, delta=0.0, seed=0
-):
-    """REPLICATES draws of both sides' (seed x layout) tables from the crossed model with known
-    variances; B's layout effect correlates with A's. Returns (a, b): (R, S, L) and (R, S_B, L)."""
-    rng = np.random.default_rng(seed)
-    r, s_b = REPLICATES, 1 if fixed_b else seeds
-    layout_a = rng.normal(0, sd_layout, (r, 1, layouts))
-    layout_b = 0.5 * layout_a + rng.normal(0, sd_layout, (r, 1, layouts))
-    a = (
-        delta
-        + rng.normal(0, sd_seed_a, (r, seeds, 1))
-        + layout_a
-        + rng.normal(0, sd_resid, (r, seeds, layouts))
-    )
-    seed_b = 0.0 if fixed_b else rng.normal(0, sd_seed_b, (r, s_b, 1))
-    b = seed_b + layout_b + rng.normal(0, sd_resid, (r, s_b, layouts))
-    return a, b
-
-
-def _coverage(fn, a, b, delta=0.0) -> float:
-    mean, se, df = fn(a, b)
-    return float(np.mean(np.abs(mean - delta) <= stats.t.ppf(0.975, df) * se))
-
-
-# seeds, layouts, sd of A's seeds, of B's, of layouts, of the residual, B fixed
-CASES = [
-    (5, 50, 0.05, 0.05, 0.1, 0.2, False),  # seed spread large against residual / L
-    (5, 50, 0.0, 0.0, 0.1, 0.2, False),  # no seed variance: the recipe is these policies
-    (5, 50, 0.1, 0.05, 0.1, 0.3, True),  # a learned side against a fixed one
-    (2, 30, 0.05, 0.05, 0.1, 0.3, False),  # two seeds: one df per seed term
-    (5, 50, 0.02, 0.02, 0.1, 0.3, False),  # seed spread small against residual / L
-    (3, 200, 0.01, 0.0, 0.05, 0.3, False),  # one side without seed variance, many layouts
-]
+_simulate, _coverage = simulate, coverage
 
 
 @pytest.mark.parametrize("case", CASES)
@@ -122,7 +87,7 @@ def test_read_estimate_rule_and_limits():
     assert read_estimate(Estimate(-0.1, 0.01, 10), 0.03)["reading"] == "B better"
     assert read_estimate(Estimate(0.001, 0.005, 50), 0.03)["reading"] == "equivalent"
     inc = read_estimate(Estimate(0.01, 0.05, 4), 0.03)
-    assert inc["reading"] == "inconclusive" and "power_plan --recipe" in inc["why"]
+    assert inc["reading"] == "inconclusive" and "recipe_sizing" in inc["why"]
     assert read_estimate(Estimate(0.02, 0.0, np.inf), 0.03)["reading"] == "A better"
 
 
