@@ -177,7 +177,7 @@ def tables_of(ca: Cells, cb: Cells) -> tuple[np.ndarray, np.ndarray, list[str]]:
         full = {w for _, w in c if all((s, w) in c for s in mine)}
         shared = full if shared is None else shared & full
     layouts = sorted(shared or ())
-    ta, tb = (np.array([[c[(s, w)] for w in layouts] for s in mine]).reshape(-1, len(layouts))
+    ta, tb = (np.array([[c[(s, w)] for w in layouts] for s in mine], dtype=float).reshape(len(mine), len(layouts))
               for c, mine in zip((ca, cb), seeds, strict=True))  # fmt: skip
     return ta, tb, layouts
 

@@ -229,11 +229,16 @@ def families_page(
         "one; a reading is taken on the Holm-adjusted p-values, so a cell can read inconclusive while its "
         "interval excludes 0.\n"
     ]
+    titles = {
+        "score": "Robot score (the headline metric)",
+        "success": "Success",
+        "score_barn": "BARN's official score",
+    }
     for metric in order:
-        parts.append(f"## {metric}\n")
+        parts.append(f"## {titles.get(metric, metric)}\n")
         parts += [family_table(records, q, metric) + "\n" for q in QUESTIONS]
     parts.append("## The pool of both families (secondary)\n")
     for metric in order:
         parts += [family_table(records, q, metric, pooled=True) + "\n" for q in QUESTIONS]
     parts.append(LEGEND)
-    return fit_prose("\n".join(p for p in parts if p.strip())) + "\n"
+    return fit_prose("\n".join(p.rstrip("\n") + "\n" for p in parts if p.strip()))

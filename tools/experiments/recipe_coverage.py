@@ -86,8 +86,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.json:
         print(json.dumps(rows, indent=1))
         return 0
-    print(f"| seeds | layouts | sd seed A, B | sd layout | sd resid | B | coverage recipe | coverage policies "
-          f"| type I recipe | type I policies |\n|{'---:|' * 10}")  # fmt: skip
+    print(f"| S | L | sd seeds | sd layout | sd res. | B | recipe cover | policies cover "
+          f"| recipe type I | policies type I |\n|{'---:|' * 10}")  # fmt: skip
     for r in rows:
         print(f"| {r['seeds']} | {r['layouts']} | {r['sd_seed_a']}, {r['sd_seed_b']} | {r['sd_layout']} | "
               f"{r['sd_resid']} | {'fixed' if r['b_fixed'] else 'learned'} | {100 * r['recipe_coverage']:.1f} % | "

@@ -120,7 +120,8 @@ def table(records: Sequence[Mapping[str, Any]], metric: str, margin: float) -> s
         diff = metric_text(metric, c["difference"], signed=True)
         body.append([f"`{r['a']}` vs `{r['b']}`", r["profile"], r["family"], diff, *var, *plan])
     title = (f"The cheapest design per cell at 80 % power, the recipe's reading of {metric} (margin "
-             f"{margin_text(metric, margin)}); seeds a learned side, variances in the metric's units squared.\n")  # fmt: skip
+             f"{margin_text(metric, margin)}); seeds a learned side, variances in the metric's units "
+             "squared.\n")  # fmt: skip
     return fit_prose(title) + "\n" + split_columns(head, align, body, keys=3)
 
 
