@@ -242,3 +242,16 @@ def families_page(
         parts += [family_table(records, q, metric, pooled=True) + "\n" for q in QUESTIONS]
     parts.append(LEGEND)
     return fit_prose("\n".join(p.rstrip("\n") + "\n" for p in parts if p.strip()))
+
+
+def as_strata(records: Sequence[Mapping[str, Any]], question: str) -> list[dict[str, Any]]:
+    """The family records of one question shaped as ``plan_readings.read_cells``' records
+    with strata (one per (cell, profile), "strata": {family: {metric: record}}), for
+    ``readings_figure.draw`` to draw a family's cells."""
+    out: dict[tuple[str, str, str], dict[str, Any]] = {}
+    for r in records:
+        if r["question"] == question:
+            cell = out.setdefault((r["a"], r["b"], r["profile"]),
+                                  {"a": r["a"], "b": r["b"], "profile": r["profile"], "readings": {}, "strata": {}})  # fmt: skip
+            cell["strata"].setdefault(r["family"], {})[r["metric"]] = r
+    return list(out.values())

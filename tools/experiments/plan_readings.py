@@ -39,7 +39,8 @@ seed: ``both`` says why its recipe is not read, ``recipe`` refuses it (one line,
 the R-style generated layouts; each with its own N), both questions, the p-values Holm-adjusted
 over every (cell, family) per question and metric, the pool of both families after them, marked
 secondary and unadjusted (docs/pilots/yardstick-barn/sweep/recipe-readings.md prints it). It
-refuses a learned side with one training seed.
+refuses a learned side with one training seed. With ``--figure PATH`` it also draws the recipe's
+readings, a figure per family (PATH's name + ``_barn``, ``_r-style``).
 
 ``--brief`` prints two tables instead, the robot score's and success's, one line per cell and a
 column per profile: the reading and A - B (success in points; **A**: A better, **B**: B better,
@@ -57,16 +58,11 @@ from typing import Any
 
 from d3dwa_bullet.cli.compare import job_rows_of
 from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation import recipe_tables
 from d3dwa_bullet.evaluation.margins import MARGIN_OPTIONS, MARGINS, check_margin, margin_text
 from d3dwa_bullet.evaluation.page_width import fit_prose, split_columns
 from d3dwa_bullet.evaluation.paired import Unit, metric_value
 from d3dwa_bullet.evaluation.readings import metric_text, readings_by_group, readings_table
-from d3dwa_bullet.evaluation.recipe_tables import (
-    RECIPE_NOTE,
-    families_page,
-    read_families,
-    recipe_by_group,
-)
 from d3dwa_bullet.evaluation.results import completion
 from d3dwa_bullet.evaluation.style_tables import style_of
 from d3dwa_bullet.method_specs import FIXED
@@ -212,7 +208,7 @@ def read_cells(
             if b == BEST_FIXED:
                 record["best_fixed_score"] = best[profile][1]
             if question != "policies":
-                recipe, why = recipe_by_group(here, a, other, lambda r: (), margins)
+                recipe, why = recipe_tables.recipe_by_group(here, a, other, lambda r: (), margins)
                 if why is not None and question == "recipe":
                     raise ResultsError(why)
                 record |= {"recipe": recipe.get("all", {}), "recipe_why": why}
@@ -254,7 +250,9 @@ def _questions(per: Sequence[Mapping[str, Any]], question: str) -> list[str]:
         out.append(f"**The recipe** (training seed random): not read: {per[0]['recipe_why']}.\n")
     elif both and any(r["recipe"] for r in per):
         table = readings_table({r["profile"]: r["recipe"] for r in per})
-        out.append(f"**The recipe** (training seed random; {RECIPE_NOTE}):\n\n{table}")
+        out.append(
+            f"**The recipe** (training seed random; {recipe_tables.RECIPE_NOTE}):\n\n{table}"
+        )
     return out
 
 
@@ -355,11 +353,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         best = best_fixed(rows) if any(b == BEST_FIXED for _, b in pairs) else {}
         profiles = list(dict.fromkeys(r["noise"] for r in rows))
         cells = [(a, best[p][0] if b == BEST_FIXED else b, p) for a, b in pairs for p in profiles]
-        found = read_families(rows, cells, margins)
-        print(
-            json.dumps(found, indent=1) if args.json else families_page(found, margins, name),
-            end="",
-        )
+        found = recipe_tables.read_families(rows, cells, margins)
+        page = recipe_tables.families_page(found, margins, name)
+        print(json.dumps(found, indent=1) if args.json else page, end="")  # fmt: skip
+        for family in recipe_tables.FAMILIES if args.figure else ():  # the recipe's, per family
+            from tools.experiments.readings_figure import draw
+
+            to, title = args.figure, f"The recipe's readings of {name} on {family}"  # fmt: skip
+            to = to.with_name(f"{to.stem}_{family.lower()}{to.suffix}")
+            draw(recipe_tables.as_strata(found, "recipe"), to, title, family)
         return 0
     question = "policies" if args.brief or args.strata else args.question
     records = read_cells(rows, pairs, margins, strata, question)
