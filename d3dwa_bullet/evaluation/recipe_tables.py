@@ -235,9 +235,9 @@ def families_page(
         "score_barn": "BARN's official score",
     }
     for metric in order:
-        parts.append(f"## {titles.get(metric, metric)}\n")
+        parts.append(f"### {titles.get(metric, metric)}\n")
         parts += [family_table(records, q, metric) + "\n" for q in QUESTIONS]
-    parts.append("## The pool of both families (secondary)\n")
+    parts.append("### The pool of both families (secondary)\n")
     for metric in order:
         parts += [family_table(records, q, metric, pooled=True) + "\n" for q in QUESTIONS]
     parts.append(LEGEND)
