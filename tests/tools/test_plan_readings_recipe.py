@@ -109,7 +109,9 @@ def test_recipe_sizing_prints_a_design_per_family_and_refuses_bad_costs(tmp_path
 def test_families_figure_draws_the_recipe_per_family(tmp_path, capsys):
     out = str(directory(tmp_path / "r"))
     png = tmp_path / "recipe.png"
-    assert plan_readings.main([out, "--pair", "d3dwa,dwa1", "--families", "--figure", str(png)]) == 0
+    assert (
+        plan_readings.main([out, "--pair", "d3dwa,dwa1", "--families", "--figure", str(png)]) == 0
+    )
     for family in ("barn", "r-style"):
         drawn = tmp_path / f"recipe_{family}.png"
         assert drawn.stat().st_size > 10_000
