@@ -235,6 +235,7 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
         unit_of,
     )
     from d3dwa_bullet.evaluation.readings import readings_by_group
+    from d3dwa_bullet.evaluation.recipe_tables import recipe_by_group
     from d3dwa_bullet.evaluation.seed_tables import improvement
     from d3dwa_bullet.evaluation.style_tables import style_of, styles_present
     from d3dwa_bullet.evaluation.training_worlds import trained_counts, trained_worlds
@@ -269,10 +270,12 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
         paired = paired_by_group(rows, key_a, key_b, group_of, by_seed)
         layout_groups = {unit_of(r, False): groups_of(r) for r in rows}
         readings = readings_by_group(rows, key_a, key_b, layout_groups, args.margins)
+        recipe, args.recipe_why = recipe_by_group(rows, key_a, key_b, groups_of, args.margins)
         for record in records:
             test = paired.get(record["group"], {})
             record |= {f"paired_{k}": v for k, v in test.items()}
             record["readings"] = readings.get(record["group"], {})
+            record["recipe"] = recipe.get(record["group"], {})
     sides = {key_a: (a, labels[key_a]), key_b: (b, labels[key_b])}
     training = trained_sides(out, other, sides)
     groups = {g: {r["world"] for r in rows if g in ("all", *groups_of(r))}
@@ -287,6 +290,7 @@ def _compare(args: argparse.Namespace, a: str, b: str) -> None:
                           "recovery_a": rec_a, "recovery_b": rec_b, "pair_by": args.pair_by,
                           "score_form": form, "margins": args.margins, "no_paired_test": absent,
                           "complete": complete_a and complete_b, "groups": records,
+                          "recipe_why": getattr(args, "recipe_why", None),
                           "barn_training": {k: t.to_dict() for k, t in training.items()}}))  # fmt: skip
         return
     _print(args, rows, records, sides, source, absent, (training, groups))
@@ -308,6 +312,7 @@ def _print(
     them a mark (``training_worlds``)."""
     from d3dwa_bullet.evaluation.page_width import fit_prose
     from d3dwa_bullet.evaluation.readings import NO_SCORE, readings_table
+    from d3dwa_bullet.evaluation.recipe_tables import recipe_section
     from d3dwa_bullet.evaluation.seed_tables import improvement_table, seed_tables
     from d3dwa_bullet.evaluation.training_worlds import (
         MARK,
@@ -372,10 +377,11 @@ def _print(
         )
     print(
         fit_prose(
-            f"\nReadings, A = {la}, B = {lb}: paired by layout (each side averaged over its "
-            "training and evaluation seeds there); A - B with its 95 % t interval (success in "
-            "points), the smaller one-sided paired t p-value, TOST's p against the margin; a "
-            "difference reads at p < 0.025 each way, equivalence at TOST p < 0.05 "
+            f"\nReadings about these policies (training seeds fixed), A = {la}, B = {lb}: paired "
+            "by layout (each side averaged over its training and evaluation seeds there); A - B "
+            "with its 95 % t interval (success in points), the smaller one-sided paired t "
+            "p-value, TOST's p against the margin; a difference reads at p < 0.025 each way, equivalence at "
+            "TOST p < 0.05 "
             "(docs/design/readings.md#readings).\n"
         )
     )
@@ -385,6 +391,8 @@ def _print(
              for g, per in readings.items()}  # fmt: skip
     trained_on = {flagged[g]: c for g, c in counts.items()} if any(counts.values()) else None
     print(readings_table(shown, trained_on), end="")
+    recipe = {flagged[r["group"]]: r["recipe"] for r in records}
+    print(recipe_section(recipe, args.recipe_why, (la, lb), lacking, trained_on), end="")
     if lacking:
         names = " and ".join(METRIC_NAMES[m] for m in lacking)
         print(fit_prose(f"\n{names}: {NO_SCORE}; success reads alone."))

@@ -41,14 +41,22 @@ def _results(path, training):
 def _readings_rows(printed: str) -> dict[str, str]:
     """The readings table's first part: group (its first cell) -> its 'trained on' cell ('' when
     the table has no such column); every part of a split table keeps the same groups."""
-    part = printed.split("Readings, A =")[1].split("\n\n| tasks")[1]
+    part = (
+        printed.split("Readings about these policies")[1]
+        .split("\n\nReadings about the recipe")[0]
+        .split("\n\n| tasks")[1]
+    )
     header, _, *body = part.strip().splitlines()
     column = [c.strip() for c in header.split("|")[1:-1]][1] == "trained on"
     rows = {}
     for line in body:
         cells = [c.strip() for c in line.split("|")[1:-1]]
         rows[cells[0]] = cells[2] if column else ""
-    for other in printed.split("Readings, A =")[1].split("\n\n| tasks")[2:]:
+    for other in (
+        printed.split("Readings about these policies")[1]
+        .split("\n\nReadings about the recipe")[0]
+        .split("\n\n| tasks")[2:]
+    ):
         assert {ln.split(" | ")[0][2:] for ln in other.strip().splitlines()[2:]} == set(rows)
     return rows
 

@@ -29,6 +29,19 @@ cell; a stratum is a finer look with fewer layouts.
 (tools/experiments/readings_figure.py), whatever the text printed; ``--figure-stratum NAME``
 draws that stratum's readings instead of the pooled cells (``barn``: BARN's worlds alone).
 
+``--question`` (default ``both``): each cell's readings about **these policies** (the training
+seeds fixed, as above) and, where a side is learned, about **the recipe** (the training seed a
+random effect: what another draw of seeds would give; docs/design/readings-recipe.md), each
+table saying which; ``policies`` or ``recipe`` prints one. A learned side with one training
+seed: ``both`` says why its recipe is not read, ``recipe`` refuses it (one line, exit 2).
+
+``--families`` prints the page that reads the plan per world family instead (BARN's worlds;
+the R-style generated layouts; each with its own N), both questions, the p-values Holm-adjusted
+over every (cell, family) per question and metric, the pool of both families after them, marked
+secondary and unadjusted (docs/pilots/yardstick-barn/sweep/recipe-readings.md prints it). It
+refuses a learned side with one training seed. With ``--figure PATH`` it also draws the recipe's
+readings, a figure per family (PATH's name + ``_barn``, ``_r-style``).
+
 ``--brief`` prints two tables instead, the robot score's and success's, one line per cell and a
 column per profile: the reading and A - B (success in points; **A**: A better, **B**: B better,
 "eq.": equivalent within the margin, "inc.": inconclusive), as docs/results.md quotes them.
@@ -45,6 +58,7 @@ from typing import Any
 
 from d3dwa_bullet.cli.compare import job_rows_of
 from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation import recipe_tables
 from d3dwa_bullet.evaluation.margins import MARGIN_OPTIONS, MARGINS, check_margin, margin_text
 from d3dwa_bullet.evaluation.page_width import fit_prose, split_columns
 from d3dwa_bullet.evaluation.paired import Unit, metric_value
@@ -55,6 +69,8 @@ from d3dwa_bullet.method_specs import FIXED
 from d3dwa_bullet.world.barn_difficulty import TERCILE_GROUPS
 from tools.entry import ToolParser, tool_main
 
+QUESTIONS = ("both", "policies", "recipe")
+"""--question: which readings a cell prints (both: the recipe too where a side is learned)."""
 BEST_FIXED = "best-fixed"
 """The B of a cell that stands for the best fixed DWA of each profile."""
 
@@ -158,11 +174,14 @@ def read_cells(
     pairs: Sequence[tuple[str, str]],
     margins: Mapping[str, float],
     strata: Callable[[Mapping[str, Any]], Sequence[str]] | None = None,
+    question: str = "policies",
 ) -> list[dict[str, Any]]:
     """One record per (cell, profile): {"a", "b", "profile", "readings": {metric: reading}}
-    (``readings_by_group``'s records, the profile the group); with strata (a row's strata),
-    also "strata": {stratum: {metric: reading}}. ResultsError naming a method of a cell the
-    rows lack."""
+    (``readings_by_group``'s records, these policies', the profile the group); with strata (a
+    row's strata), also "strata": {stratum: {metric: reading}}; unless question is "policies",
+    also "recipe": {metric: the recipe's reading} ({} with "recipe_why" where a learned side
+    has one training seed; question "recipe" refuses that). ResultsError naming a method of
+    a cell the rows lack."""
     present = {r["method"] for r in rows}
     for name in dict.fromkeys(m for pair in pairs for m in pair):  # the cells' order
         if name != BEST_FIXED and name not in present:
@@ -188,19 +207,26 @@ def read_cells(
                 record["strata"] = {name: by_group[name] for name in names}
             if b == BEST_FIXED:
                 record["best_fixed_score"] = best[profile][1]
+            if question != "policies":
+                recipe, why = recipe_tables.recipe_by_group(here, a, other, lambda r: (), margins)
+                if why is not None and question == "recipe":
+                    raise ResultsError(why)
+                record |= {"recipe": recipe.get("all", {}), "recipe_why": why}
             out.append(record)
     return out
 
 
-def markdown(records: Sequence[Mapping[str, Any]], plan: str) -> str:
+def markdown(records: Sequence[Mapping[str, Any]], plan: str, question: str = "policies") -> str:
     """A section per cell: its title (B named as the best fixed DWA where it is one), then
-    ``readings_table`` with a row per (profile, metric)."""
+    ``readings_table`` with a row per (profile, metric), for each question the records hold
+    (:func:`_questions`)."""
     parts = [f"Readings of {plan}: paired by layout, each side averaged over its seeds there; "
              "success in points (docs/design/readings.md#readings).\n"]  # fmt: skip
     cells: dict[tuple[str, str | bool], list[Mapping[str, Any]]] = {}
     for r in records:
         cells.setdefault((r["a"], "best_fixed_score" in r or r["b"]), []).append(r)
     for (a, b), per in cells.items():
+        questions = _questions(per, question)
         if b is True:
             named = ", ".join(
                 f"{r['profile']}: `{r['b']}` ({r['best_fixed_score']:.3f})" for r in per
@@ -208,9 +234,26 @@ def markdown(records: Sequence[Mapping[str, Any]], plan: str) -> str:
             title = f"`{a}` (A) against the best fixed DWA (B)\n\nB by mean robot score: {named}."
         else:
             title = f"`{a}` (A) against `{b}` (B)"
-        table = readings_table({r["profile"]: r["readings"] for r in per})
-        parts.append(f"### {title}\n\n{table}")
+        parts.append(f"### {title}\n\n" + "\n".join(questions))
     return fit_prose("\n".join(parts))
+
+
+def _questions(per: Sequence[Mapping[str, Any]], question: str) -> list[str]:
+    """A cell's readings tables, these policies' (unless question is "recipe") and the
+    recipe's (when the records hold it), each under the question it answers, or a line saying
+    why the recipe is not read."""
+    out, both = [], "recipe" in per[0]
+    if question != "recipe":
+        table = readings_table({r["profile"]: r["readings"] for r in per})
+        out.append(("**These policies** (training seeds fixed):\n\n" if both else "") + table)
+    if both and per[0].get("recipe_why"):
+        out.append(f"**The recipe** (training seed random): not read: {per[0]['recipe_why']}.\n")
+    elif both and any(r["recipe"] for r in per):
+        table = readings_table({r["profile"]: r["recipe"] for r in per})
+        out.append(
+            f"**The recipe** (training seed random; {recipe_tables.RECIPE_NOTE}):\n\n{table}"
+        )
+    return out
 
 
 _SHORT = {"A better": "**A**", "B better": "**B**", "equivalent": "eq.", "inconclusive": "inc."}
@@ -281,6 +324,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="the figure draws this stratum (e.g. barn) instead of the pool")  # fmt: skip
     parser.add_argument("--strata", action="store_true",
                         help="also per stratum: BARN's terciles and styles (see above)")  # fmt: skip
+    parser.add_argument("--question", choices=QUESTIONS, default="both",
+                        help="these policies, the recipe, or both where a side is learned (see above)")  # fmt: skip
+    parser.add_argument("--families", action="store_true",
+                        help="both questions per world family, Holm-adjusted (see above)")  # fmt: skip
     args = parser.parse_args(argv)
     if bool(args.plan) == bool(args.pair):
         parser.error("give either --plan or --pair")
@@ -301,7 +348,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.figure_stratum and not args.figure:
         parser.error("--figure-stratum needs --figure")
     strata = strata_of if args.strata or args.figure_stratum else None
-    records = read_cells(finished_rows(args.results), pairs, margins, strata)
+    rows = finished_rows(args.results)
+    if args.families:
+        best = best_fixed(rows) if any(b == BEST_FIXED for _, b in pairs) else {}
+        profiles = list(dict.fromkeys(r["noise"] for r in rows))
+        cells = [(a, best[p][0] if b == BEST_FIXED else b, p) for a, b in pairs for p in profiles]
+        found = recipe_tables.read_families(rows, cells, margins)
+        page = recipe_tables.families_page(found, margins, name)
+        print(json.dumps(found, indent=1) if args.json else page, end="")  # fmt: skip
+        for family in recipe_tables.FAMILIES if args.figure else ():  # the recipe's, per family
+            from tools.experiments.readings_figure import draw
+
+            to, title = args.figure, f"The recipe's readings of {name} on {family}"  # fmt: skip
+            to = to.with_name(f"{to.stem}_{family.lower()}{to.suffix}")
+            draw(recipe_tables.as_strata(found, "recipe"), to, title, family)
+        return 0
+    question = "policies" if args.brief or args.strata else args.question
+    records = read_cells(rows, pairs, margins, strata, question)
     if args.figure:
         from tools.experiments.readings_figure import draw
 
@@ -318,7 +381,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     elif args.strata:
         print(brief(records, margins, strata=True), end="")
     else:
-        print(brief(records, margins) if args.brief else markdown(records, name), end="")
+        print(brief(records, margins) if args.brief else markdown(records, name, question), end="")
     return 0
 
 
