@@ -41,6 +41,13 @@ from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.paired import Row, metric_value
 from d3dwa_bullet.evaluation.readings import ALPHA, read_differences, reading_rule
 
+QUESTIONS = {
+    "recipe": "the recipe (training seed random)",
+    "policies": "these policies (training seeds fixed)",
+}
+"""What a reading answers, with its label: the recipe (the training seed a random effect) or these
+policies (the trained seeds fixed). A plan's cells and the tables name one of these."""
+
 RECIPE_WHY = "seeds and layouts to decide: recipe_sizing"
 """Why an inconclusive recipe-level reading names no N: it needs seeds as well as layouts."""
 

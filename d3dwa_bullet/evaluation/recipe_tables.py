@@ -23,6 +23,7 @@ from d3dwa_bullet.evaluation.page_width import fit_prose, split_columns
 from d3dwa_bullet.evaluation.paired import Row
 from d3dwa_bullet.evaluation.readings import metric_text, readings_table
 from d3dwa_bullet.evaluation.recipe import (
+    QUESTIONS,
     Cells,
     both_readings,
     cell_means,
@@ -36,10 +37,6 @@ FAMILIES = ("BARN", "R-style")
 """The headline's world families, in the tables' order."""
 POOLED = "pooled"
 """The secondary row: every layout of both families."""
-QUESTIONS = {
-    "recipe": "the recipe (training seed random)",
-    "policies": "these policies (training seeds fixed)",
-}
 
 
 def family_of(row: Row) -> str | None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.plans import (
     ESTIMATORS,
     decisions,
@@ -64,7 +64,7 @@ def test_the_prefix_estimates_are_the_estimate_of_each_prefix() -> None:
     diff, se, df = prefix_estimates(d, [5, 20, 50])
     for k, n in enumerate([5, 20, 50]):
         one = differences_estimate(d[:n])
-        assert (diff[k], se[k], df[k]) == pytest.approx((one.difference, one.se, one.df))
+        assert (diff[k], se[k], df[k]) == pytest.approx((one.mean, one.se, one.df))
     flat = prefix_estimates(np.full(10, 0.2) + np.arange(10) * 0.0, [4, 10])
     assert flat[1].tolist() == [0.0, 0.0]  # no spread: the se is 0, not rounding noise
 
@@ -87,14 +87,32 @@ def test_decisions_at_a_look() -> None:
         INCONCLUSIVE, EQUIVALENT, B_BETTER]  # fmt: skip
 
 
-def test_the_recipe_question_has_one_named_place_to_plug_in() -> None:
+def test_each_question_has_its_estimator_and_the_recipe_counts_the_seed_spread() -> None:
     assert set(ESTIMATORS) == {"policies", "recipe"}
     rows = [{"world": f"w{i}", "noise": "none", "seed": 0, "method": m, "outcome": "goal", "score": s}
             for i in range(3) for m, s in (("a", 0.5 + 0.1 * i), ("b", 0.4))]  # fmt: skip
     est = ESTIMATORS["policies"](rows, "a", "b", "score")
-    assert est.difference == pytest.approx(0.2) and est.df == 2
-    with pytest.raises(ConfigError, match=r"ESTIMATORS\['recipe'\]"):
-        ESTIMATORS["recipe"](rows, "a", "b", "score")
+    assert est.mean == pytest.approx(0.2) and est.df == 2
+    # Two training seeds of a, 0.1 apart on every layout; b fixed: the recipe's se holds the seeds' spread.
+    seeded = [
+        {
+            "world": f"w{i}",
+            "noise": "none",
+            "seed": 0,
+            "method": "a",
+            "policy_seed": k,
+            "outcome": "goal",
+            "score": 0.5 + 0.1 * k + 0.01 * i,
+        }
+        for i in range(4)
+        for k in (0, 1)
+    ]
+    seeded += [{"world": f"w{i}", "noise": "none", "seed": 0, "method": "b", "outcome": "goal", "score": 0.4}
+               for i in range(4)]  # fmt: skip
+    policies, recipe_ = (ESTIMATORS[q](seeded, "a", "b", "score") for q in ("policies", "recipe"))
+    assert recipe_.mean == pytest.approx(policies.mean) and recipe_.se > policies.se
+    with pytest.raises(ResultsError, match="one training seed"):
+        ESTIMATORS["recipe"]([r for r in seeded if r.get("policy_seed") != 1], "a", "b", "score")
 
 
 def test_the_order_is_fixed_by_its_seed_and_interleaves_the_strata() -> None:

@@ -3,8 +3,8 @@
 At each look a cell's estimate is three numbers (:class:`Estimate`): the mean difference
 A - B, its standard error and its degrees of freedom, from one callable per question
 (:data:`ESTIMATORS`): ``policies`` is today's reading (paired by layout, each side averaged
-over its seeds there: ``paired.paired_scores(..., by_seed=False)``); ``recipe`` is the place
-the recipe-level estimator (the training seed a random effect, issue 77 part 1) plugs in.
+over its seeds there: ``paired.paired_scores(..., by_seed=False)``); ``recipe`` is the recipe-level
+estimate (the training seed a random effect: :func:`recipe.recipe_estimate`).
 
 The statistic t = difference / se is turned into the z with the same one-sided p
 (Phi^-1 of Student's t cdf at df), so a boundary on the normal scale holds for a t with few
@@ -23,28 +23,19 @@ A difference crossing with an equivalence reads as the difference, as the fixed-
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy import stats
 
-from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.evaluation import recipe
 from d3dwa_bullet.evaluation.paired import MIN_LAYOUTS, Row, mean_sd, paired_scores
+from d3dwa_bullet.evaluation.recipe import Estimate
 
 OPEN, A_BETTER, B_BETTER, EQUIVALENT, INCONCLUSIVE = 0, 1, 2, 3, 4
 """A cell's state after a look, as :func:`decisions` codes it."""
 DECISIONS = {OPEN: "open", A_BETTER: "A better", B_BETTER: "B better", EQUIVALENT: "equivalent",
              INCONCLUSIVE: "inconclusive"}  # fmt: skip
-
-
-@dataclass(frozen=True)
-class Estimate:
-    """A cell's estimate at a look: A - B (metric units), its standard error, its df."""
-
-    difference: float
-    se: float
-    df: float
 
 
 Estimator = Callable[[Sequence[Row], str, str, str], Estimate]
@@ -71,16 +62,21 @@ def policies_estimate(rows: Sequence[Row], a: str, b: str, metric: str) -> Estim
 
 
 def recipe_estimate(rows: Sequence[Row], a: str, b: str, metric: str) -> Estimate:
-    """The recipe (the training seed a random effect): not wired here. The recipe-level
-    estimator of issue 77 part 1 plugs in at ``ESTIMATORS["recipe"]``."""
-    raise ConfigError(
-        f"cell {a},{b}: question 'recipe' has no estimator wired yet "
-        "(d3dwa_bullet.evaluation.plans.looks.ESTIMATORS['recipe'])"
-    )
+    """The recipe (the training seed a random effect): :func:`recipe.recipe_estimate` on the
+    two sides' (seed x layout) tables over the layouts every seed ran. ResultsError naming a
+    learned side with one training seed."""
+    for method in (a, b):
+        recipe.check_recipe_side(rows, method)
+    ta, tb, layouts = recipe.seed_layout_tables(rows, a, b, metric)
+    if len(layouts) < MIN_LAYOUTS:
+        raise ValueError(
+            f"an estimate needs {MIN_LAYOUTS} or more shared layouts, got {len(layouts)}"
+        )
+    return recipe.recipe_estimate(ta, tb)
 
 
 ESTIMATORS: dict[str, Estimator] = {"policies": policies_estimate, "recipe": recipe_estimate}
-"""One estimator per question of ``plan_file.QUESTIONS``: the one place a new one plugs in."""
+"""One estimator per question of ``recipe.QUESTIONS``: the one place a new one plugs in."""
 
 
 def z_of(t: ArrayLike, df: ArrayLike) -> np.ndarray:

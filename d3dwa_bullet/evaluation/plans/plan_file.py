@@ -33,12 +33,11 @@ from typing import Any
 
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.paired import METRICS, MIN_LAYOUTS
+from d3dwa_bullet.evaluation.recipe import QUESTIONS
 from d3dwa_bullet.io import read_text
 from d3dwa_bullet.limits import MAX_DOCUMENT_BYTES
 from d3dwa_bullet.loading import parse_yaml
 
-QUESTIONS = ("policies", "recipe")
-"""What a cell reads: these policies (seeds fixed) or the recipe (the seed a random effect)."""
 SPENDING = ("lan-demets-obrien-fleming",)
 """The alpha-spending functions a plan may name."""
 FIELDS = ("name", "order_seed", "alpha", "spending", "headline", "margins", "profiles",
@@ -207,7 +206,7 @@ def check_plan(data: Any, source: str, digest: str = "") -> Plan:
             raise ConfigError(f"{where}: a and b must differ, got {a!r} twice")
         if c["question"] not in QUESTIONS:
             raise ConfigError(
-                f"{where}.question: must be one of {', '.join(QUESTIONS)}, got {c['question']!r}"
+                f"{where}.question: must be one of {', '.join(sorted(QUESTIONS))}, got {c['question']!r}"
             )
         cells.append(Cell(a, b, c["question"]))
     if len({(c.a, c.b) for c in cells}) != len(cells):

@@ -101,7 +101,7 @@ def _read(plan: Plan, cell: Cell, profile: str, rows: Sequence[Row]) -> tuple[fl
         e = ESTIMATORS[cell.question](rows, cell.a, cell.b, plan.headline)
     except ValueError as err:  # fewer than two layouts, or a value missing
         raise ResultsError(f"cell {cell.a},{cell.b} under {profile}: {err}") from err
-    return e.difference, e.se, e.df
+    return e.mean, e.se, e.df
 
 
 def run_plan(
