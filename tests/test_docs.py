@@ -327,7 +327,10 @@ def test_results_opens_with_one_answer_per_question() -> None:
     for question in ("a", "b", "c"):
         assert first.count(f'<a id="answer-{question}">') == 1
         assert first.count(f"**({question}) ") == 1
-    assert first.count("for these policies") >= 3
+    leads = re.findall(r"\*\*\([abc]\) [^*]+\*\*", first)
+    assert len(leads) == 3
+    for lead in leads:
+        assert re.search(r"the recipe|these policies", lead), lead
     internal = re.compile(
         r"\bissues? \d+|\bpilot [A-Z]\b|\brecipe \d+|\bsessions? \d+", re.IGNORECASE
     )
