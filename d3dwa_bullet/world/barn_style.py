@@ -41,6 +41,7 @@ from d3dwa_bullet.world.barn import (
     path_length,
 )
 from d3dwa_bullet.world.barn_path import barn_search, c_space, crossing_region
+from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
 from d3dwa_bullet.world.model import World, validate_task
 
 STYLE = "BARN-style"
@@ -57,9 +58,9 @@ FILL_AT = 5
 """Smoothing fills a cell with at least this many filled neighbours..."""
 CLEAR_AT = 1
 """...and clears one with at most this many."""
-TRAINING_SEEDS = 2**31
-"""Training draws BARN-style seeds from [0, TRAINING_SEEDS); evaluation seeds are >= it. The
-same bound as R-style layouts' (``UNSEEN_LAYOUT_SEED_BASE``, which a test holds equal)."""
+TRAINING_SEEDS = UNSEEN_LAYOUT_SEED_BASE
+"""Training draws BARN-style seeds from [0, TRAINING_SEEDS = 2^31); evaluation seeds are >= it
+(the bound of R-style layouts)."""
 MAX_SEED = 2**63 - 1
 """Largest seed (numpy's generator takes any int >= 0; names stay one int64)."""
 DRAWS = 10_000
@@ -185,18 +186,31 @@ def barn_style_seed(name: str) -> int | None:
     return None if match is None else check_seed(int(match.group(1)), f"world {name!r}")
 
 
+def barn_style_group(name: str) -> str | None:
+    """``barn-style`` for a BARN-style world's name, else None (as BARN's tercile_group)."""
+    return None if _NAME.fullmatch(name.strip()) is None else GROUP
+
+
+def is_eval_world(world: World) -> bool:
+    """True for a BARN-style world of an evaluation seed (>= TRAINING_SEEDS): never trained on."""
+    seed = barn_style_seed(world.name) if world.group == GROUP else None
+    return seed is not None and seed >= TRAINING_SEEDS
+
+
 def barn_style_world_from_name(name: str) -> World | None:
     """The BARN-style world a name names, or None (see :func:`barn_style_seed`)."""
     seed = barn_style_seed(name)
     return None if seed is None else barn_style_world(seed)
 
 
-def barn_style_names(count: object, seed: object, option: str = "--count") -> list[str]:
+def barn_style_names(
+    count: object, seed: object, option: str = "--count", seed_option: str = "--seed"
+) -> list[str]:
     """Names of ``count`` BARN-style evaluation worlds from ``seed`` on: ConfigError naming the
     value unless count is a positive integer and every seed one training never draws."""
     if isinstance(count, bool) or not isinstance(count, int | np.integer) or count < 1:
         raise ConfigError(
             f"{option} must be a positive integer (a number of worlds), got {count!r}"
         )
-    first = check_eval_seed(seed, int(count))
+    first = check_eval_seed(seed, int(count), seed_option)
     return [barn_style_name(first + i) for i in range(int(count))]
