@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import argparse
 
-from d3dwa_bullet.cli.options import add_suite_options, suite_world_names
 from d3dwa_bullet.cli.output import json_text
+from d3dwa_bullet.cli.suites import add_suite_options, suite_world_names
 from d3dwa_bullet.world.barn import barn_index, barn_split, path_length, read_world_file, world_file
 from d3dwa_bullet.world.barn_difficulty import (
     TERCILE_MEASURE,

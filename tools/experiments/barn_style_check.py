@@ -132,6 +132,11 @@ def success_comparison(style: list[bool], barn: list[bool]) -> dict[str, Any]:
     return out
 
 
+def ad_text(p: float) -> str:
+    """SciPy's Anderson-Darling p-value as it may be read: capped to [0.001, 0.25]."""
+    return ">=0.25" if p >= 0.25 else ("<=0.001" if p <= 0.001 else f"={p:.3f}")
+
+
 def figure(
     barn: list[dict[str, float]], style: list[dict[str, float]], tests: dict, out: Path
 ) -> None:
@@ -155,7 +160,7 @@ def figure(
             )
         t = tests[key]
         ax.set_title(
-            f"{label}\nKS D={t['ks_d']:.3f} p={t['ks_p']:.3f}; AD p={t['ad_p']:.3f}", fontsize=9
+            f"{label}\nKS D={t['ks_d']:.3f} p={t['ks_p']:.3f}; AD p{ad_text(t['ad_p'])}", fontsize=9
         )
         ax.set_ylabel("share of worlds")
         ax.grid(alpha=0.3)
@@ -213,7 +218,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         flag = " *" if min(t["ks_p"], t["ad_p"]) < ALPHA else ""
         print(
             f"{key:<26} {t['median_barn']:>11.3f} {t['median_style']:>12.3f} {t['ks_d']:>6.3f} "
-            f"{t['ks_p']:>7.4f} {t['ad_p']:>6.3f}{flag}"
+            f"{t['ks_p']:>7.4f} {ad_text(t['ad_p']):>7}{flag}"
         )
     if "dwa3_success" in report:
         s = report["dwa3_success"]
