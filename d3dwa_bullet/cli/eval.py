@@ -22,7 +22,6 @@ from d3dwa_bullet.cli.options import (
     add_backend_options,
     add_episode_options,
     add_reuse_options,
-    add_suite_options,
     default_methods,
     episode_config,
     list_arg,
@@ -30,10 +29,10 @@ from d3dwa_bullet.cli.options import (
     noise_arg,
     policy_arg,
     seed_arg,
-    suite_world_names,
     workers_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
+from d3dwa_bullet.cli.suites import add_suite_options, suite_world_names
 from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import ConfigError

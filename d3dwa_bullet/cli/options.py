@@ -35,7 +35,6 @@ from d3dwa_bullet.limits import (
 from d3dwa_bullet.method_specs import FIXED, HELD_REFERENCE, LEARNED, REFERENCE, barn_twin
 from d3dwa_bullet.params import RECOVERY_KINDS, PlannerParams, SimParams, recovery_params
 from d3dwa_bullet.planning.scan_filter import SCAN_FILTERS
-from d3dwa_bullet.world.barn import SPLITS, barn_name, barn_selection
 from d3dwa_bullet.world.model import World, goal_in_obstacle, start_in_collision
 from d3dwa_bullet.world.registry import load_world, world_file_kind
 from randomization.profiles import load_profile
@@ -146,45 +145,6 @@ def add_world_option(p: argparse.ArgumentParser, flag: str = "--world", **kwargs
     """``flag`` (a world name or file) and ``--allow-empty`` (see :func:`load_cli_world`)."""
     p.add_argument(flag, **kwargs)
     p.add_argument("--allow-empty", action="store_true", help=ALLOW_EMPTY_HELP)
-
-
-SUITES = ("barn",)
-"""World suites ``--suite`` names: BARN's 300 worlds (docs/worlds.md#barn)."""
-
-
-def add_suite_options(p: argparse.ArgumentParser) -> None:
-    """``--suite``, ``--split`` and ``--world-ids`` (see :func:`suite_world_names`)."""
-    p.add_argument("--suite", help="a world suite instead of --worlds: barn (BARN's 300 worlds)")
-    p.add_argument(
-        "--split",
-        help="with --suite barn: challenge (worlds 0, 6, ..., 294; the default of eval and sweep), "
-        "train or all (the default of worlds)",
-    )
-    p.add_argument(
-        "--world-ids",
-        help="with --suite: a subset of the split, e.g. 0,6,12 or 0-30 (default: all)",
-    )
-
-
-def suite_world_names(
-    args: argparse.Namespace, default_split: str = "challenge"
-) -> list[str] | None:
-    """The world names of ``--suite/--split/--world-ids`` (``BARN-0``, ...), or None without
-    ``--suite``; ``--split`` defaults to default_split. ConfigError for an unknown suite or split, --split or --world-ids without
-    --suite, --suite with --worlds, and a bad subset (barn.barn_selection)."""
-    if args.suite is None:
-        for option, value in (("--split", args.split), ("--world-ids", args.world_ids)):
-            if value is not None:
-                raise ConfigError(f"{option} needs --suite barn")
-        return None
-    if args.suite not in SUITES:
-        raise ConfigError(f"--suite: unknown suite {args.suite!r}; choose from {', '.join(SUITES)}")
-    if args.worlds is not None:
-        raise ConfigError("--worlds and --suite exclude each other: choose one")
-    split = default_split if args.split is None else args.split
-    if split not in SPLITS:
-        raise ConfigError(f"--split: unknown split {split!r}; choose from {', '.join(SPLITS)}")
-    return [barn_name(i) for i in barn_selection(split, args.world_ids)]
 
 
 def load_cli_world(name_or_path: str, allow_empty: bool = False, warn: bool = True) -> World:

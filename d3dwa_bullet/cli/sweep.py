@@ -17,7 +17,6 @@ from d3dwa_bullet.cli.options import (
     add_backend_options,
     add_recovery_options,
     add_reuse_options,
-    add_suite_options,
     default_methods,
     episode_config,
     list_arg,
@@ -25,11 +24,11 @@ from d3dwa_bullet.cli.options import (
     policy_arg,
     seed_arg,
     split_list,
-    suite_world_names,
     time_limit_arg,
     workers_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
+from d3dwa_bullet.cli.suites import add_suite_options, suite_world_names
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.plans.plan_file import Plan, check_fits, load_plan
 from d3dwa_bullet.evaluation.results import read_meta

@@ -5,15 +5,23 @@ from __future__ import annotations
 
 import argparse
 
-from d3dwa_bullet.cli.options import add_suite_options, suite_world_names
 from d3dwa_bullet.cli.output import json_text
+from d3dwa_bullet.cli.suites import add_suite_options, suite_world_names
 from d3dwa_bullet.world.barn import barn_index, barn_split, path_length, read_world_file, world_file
-from d3dwa_bullet.world.barn_difficulty import TERCILE_MEASURE, barn_difficulty, barn_tercile
+from d3dwa_bullet.world.barn_difficulty import (
+    TERCILE_MEASURE,
+    barn_difficulty,
+    barn_tercile,
+    difficulty_of,
+)
+from d3dwa_bullet.world.barn_style import barn_style_draw, barn_style_seed
 from d3dwa_bullet.world.registry import list_worlds
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("worlds", help="list the shipped worlds, or a suite's (--suite barn)")
+    p = sub.add_parser(
+        "worlds", help="list the shipped worlds, or a suite's (--suite barn, barn-style)"
+    )
     p.add_argument("--json", action="store_true")
     add_suite_options(p)
     p.set_defaults(func=cmd_worlds, worlds=None)
@@ -21,6 +29,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def cmd_worlds(args: argparse.Namespace) -> int:
     suite = suite_world_names(args, default_split="all")
+    if suite is not None and args.suite == "barn-style":
+        return _list_barn_style(suite, args.json)
     if suite is not None:
         return _list_suite(suite, args.json)
     worlds = list_worlds()
@@ -57,5 +67,31 @@ def _list_suite(names: list[str], as_json: bool) -> int:
             f"{r['clearance_mean']:>10.3f}  {r['clearance_min']:>9.3f}  "
             f"{r['characteristic_dimension']:>8.3f}  {r['tortuosity']:>10.3f}  "
             f"{r['reference_length']:>5.2f}"
+        )
+    return 0
+
+
+def _list_barn_style(names: list[str], as_json: bool) -> int:
+    """One row per BARN-style world: seed, recipe setting, the difficulty measures, path length."""
+    records = []
+    for name in names:
+        d = barn_style_draw(int(barn_style_seed(name)))  # type: ignore[arg-type]  # suite names
+        records.append(
+            {"name": name, "seed": d.seed, "fill": d.fill, "passes": d.passes}
+            | difficulty_of(d.grid, d.path).to_dict()
+            | {"reference_length": path_length(d.path)}
+        )
+    if as_json:
+        print(json_text(records))
+        return 0
+    print(
+        "BARN-style worlds (BARN's recipe, not BARN's worlds); clearance and width in m, path length in m"
+    )
+    print(f"{'name':<24} fill  passes  clear_mean  clear_min  char_dim  tortuosity  path")
+    for r in records:
+        print(
+            f"{r['name']:<24} {r['fill']:.2f}  {r['passes']:>6}  {r['clearance_mean']:>10.3f}  "
+            f"{r['clearance_min']:>9.3f}  {r['characteristic_dimension']:>8.3f}  "
+            f"{r['tortuosity']:>10.3f}  {r['reference_length']:>5.2f}"
         )
     return 0

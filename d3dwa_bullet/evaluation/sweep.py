@@ -83,16 +83,18 @@ from d3dwa_bullet.evaluation.training_worlds import (
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.learning.agents.barn_record import BarnTraining
 from d3dwa_bullet.limits import MAX_EPISODES
+from d3dwa_bullet.world import barn_style
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
 from d3dwa_bullet.world.generator_spec import load_generator
 from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.registry import load_world, world_paths
 
 SWEEP_FIELDS = (*CSV_FIELDS[:5], "axis", "level", "layout", *CSV_FIELDS[5:])
-LAYOUT_GROUPS = ("shipped", "given", *TERCILE_ORDER, "generated")
+LAYOUT_GROUPS = ("shipped", "given", *TERCILE_ORDER, barn_style.GROUP, "generated")
 """Where a sweep's layout comes from: a shipped world named in --worlds; any other --worlds
 entry (a generated layout by name, or a world file); a BARN world (``--suite barn``), by its
-difficulty tercile (barn-easy, barn-middle, barn-hard); one of the --layouts unseen layouts."""
+difficulty tercile (barn-easy, barn-middle, barn-hard); a BARN-style world (``--suite
+barn-style``, never BARN's); one of the --layouts unseen layouts."""
 
 
 @dataclass(frozen=True)
@@ -129,12 +131,11 @@ def unseen_layout_seeds(layouts: int) -> list[int]:
 
 def given_group(name: str) -> str:
     """The layout group of a --worlds entry: "shipped" for a shipped world's name, a BARN
-    world's tercile group for its name (BARN-17), "given" for anything else (a generated
-    layout by name, a world file)."""
-    shipped = {n.upper() for n in world_paths()}
-    if name.upper() in shipped:
+    world's tercile group for its name (BARN-17), "barn-style" for a BARN-style world's,
+    "given" for anything else (a generated layout by name, a world file)."""
+    if name.upper() in {n.upper() for n in world_paths()}:
         return "shipped"
-    return tercile_group(name) or "given"
+    return tercile_group(name) or barn_style.barn_style_group(name) or "given"
 
 
 def sweep_worlds(settings: SweepSettings, progress: bool = False) -> list[tuple[World, str]]:
@@ -219,6 +220,7 @@ def layout_titles(settings: SweepSettings) -> dict[str, str]:
     titles = {}
     labels = [("shipped", "shipped worlds"), ("given", "worlds given")]
     labels += [(g, f"BARN {g.removeprefix('barn-')} tercile") for g in TERCILE_ORDER]
+    labels += [(barn_style.GROUP, "BARN-style worlds (not BARN's)")]
     for group, label in labels:
         names = [Path(w).stem if Path(w).suffix else w
                  for w in settings.worlds if given_group(w) == group]  # fmt: skip

@@ -27,8 +27,9 @@ import numpy as np
 
 from d3dwa_bullet.errors import ConfigError, D3DWAError
 from d3dwa_bullet.sim.noise import NoiseModel
-from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, generate_world
-from d3dwa_bullet.world.generator_spec import load_generator
+from d3dwa_bullet.world.barn_style import is_eval_world
+from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
+from d3dwa_bullet.world.layout_styles import check_style, generate_layout
 from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.native import EVAL_ONLY_GROUPS
 from d3dwa_bullet.world.registry import load_world, world_names
@@ -56,7 +57,13 @@ GENERATOR_RETRIES = 5
 
 
 def check_training_world(world: World, where: str = "worlds") -> World:
-    """Return ``world`` if it may be trained on, else ConfigError (evaluation-only group)."""
+    """Return ``world`` if it may be trained on, else ConfigError (evaluation-only group, or a
+    BARN-style world of an evaluation seed)."""
+    if is_eval_world(world):
+        raise ConfigError(
+            f"{where}: world {world.name!r} is a BARN-style world of an evaluation seed (>= 2^31); "
+            "train on the BARN-style generator (generators: [BARN-style]) or seeds below 2^31"
+        )
     if world.group in EVAL_ONLY_GROUPS:
         raise ConfigError(
             f"{where}: world {world.name!r} ({world.source}) is in the evaluation-only group "
@@ -143,7 +150,7 @@ class TaskSampler:
                         f"from obstacles in every world: {err}"
                     ) from err
         for style in self.generators:
-            load_generator(style)  # unknown style -> UnknownNameError now, not mid-training
+            check_style(style)  # unknown style -> UnknownNameError now, not mid-training
         n_tasks = len(self.worlds) + len(self.generators)
         p_gen = (
             len(self.generators) / max(n_tasks, 1)
@@ -248,7 +255,7 @@ class TaskSampler:
         error: D3DWAError | None = None
         for _ in range(GENERATOR_RETRIES):
             try:
-                layout = generate_world(task, int(layout_rng.integers(UNSEEN_LAYOUT_SEED_BASE)))
+                layout = generate_layout(task, int(layout_rng.integers(UNSEEN_LAYOUT_SEED_BASE)))
             except ConfigError as err:  # no passable layout for that seed: draw another
                 error = err
             else:

@@ -22,6 +22,7 @@ from typing import Any
 from d3dwa_bullet.errors import UnknownNameError, WorldFormatError
 from d3dwa_bullet.resources import worlds_dir
 from d3dwa_bullet.world.barn import barn_world_from_name
+from d3dwa_bullet.world.barn_style import barn_style_world_from_name
 from d3dwa_bullet.world.generator import generated_world_from_name
 from d3dwa_bullet.world.map_server import load_map_world
 from d3dwa_bullet.world.model import World
@@ -117,7 +118,7 @@ def list_worlds() -> list[World]:
 
 def load_world(name_or_path: str | Path) -> World:
     """A shipped world by name (case-insensitive), a BARN world by name (BARN-17), a
-    generated layout by name (such as R2-style-s17) or any world file by path."""
+    generated layout by name (such as R2-style-s17 or BARN-style-s2147483648) or any world file by path."""
     text = str(name_or_path)
     paths = world_paths()
     by_upper = {n.upper(): p for n, p in paths.items()}
@@ -131,7 +132,10 @@ def load_world(name_or_path: str | Path) -> World:
     generated = generated_world_from_name(text)
     if generated is not None:
         return generated
+    barn_style = barn_style_world_from_name(text)
+    if barn_style is not None:
+        return barn_style
     raise UnknownNameError(
         f"unknown world {text!r}: choose one of {', '.join(paths)}, a BARN world such as "
-        "BARN-17, a generated layout such as R2-style-s17, or a path to a world file"
+        "BARN-17, a generated layout such as R2-style-s17 or BARN-style-s2147483648, or a path to a world file"
     )
