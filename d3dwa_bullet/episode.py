@@ -26,9 +26,9 @@ from d3dwa_bullet.planning.progress import NoProgressClock
 from d3dwa_bullet.planning.recovery import Recovery, RecoveryCommand
 from d3dwa_bullet.planning.scan_filter import ScanFilter, check_driven_filter
 from d3dwa_bullet.planning.velocity_command import LocalPlanner, PlannerInputs
+from d3dwa_bullet.sim.backend import make_simulator
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.scan import LaserScan, scan_points_body
-from d3dwa_bullet.sim.simulator import Simulator
 from d3dwa_bullet.timing import perf
 from d3dwa_bullet.world.model import World
 
@@ -162,7 +162,8 @@ class Episode:
         self.obs_dim = len(observation_layout(observation))
         limit = world.time_limit if world.time_limit is not None else config.termination.time_limit
         self.max_steps = int(round(limit * config.sim.control_hz))
-        self.sim = Simulator(
+        self.sim = make_simulator(
+            config.backend,
             world,
             sim=config.sim,
             limits=config.planner.limits,
