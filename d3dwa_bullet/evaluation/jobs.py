@@ -218,9 +218,9 @@ def _evaluate(
     settings: dict[str, Any] | None,
     reuse: Reuse | None,
 ) -> list[dict[str, Any]]:
-    recovery = config.recovery_name
-    fields = run_fields(fields, recovery, (j.method for j in jobs))
-    settings = run_settings(settings, recovery)
+    recovery, backend = config.recovery_name, config.backend
+    fields = run_fields(fields, recovery, (j.method for j in jobs), backend)
+    settings = run_settings(settings, recovery, backend)
     v_max = config.planner.limits.v_max
     check_distinct(jobs)
     check_scan_filters(((j.method, j.policy) for j in jobs), config.scan_filter)
@@ -231,7 +231,7 @@ def _evaluate(
     kept = set(kept_keys(listed))  # deterministic without noise: the first seed only
     unique = {k: j for k, j in unique.items() if k in kept}
     jobs = list(unique.values())
-    check_results_dir(out, fields, recovery)
+    check_results_dir(out, fields, recovery, backend)
     drop_partial_row(out / "results.csv")
     done = {row_key(r) for r in read_results(out)}
     keys = [j.key for j in jobs]
