@@ -14,7 +14,7 @@ period, then odometry, gyro and EKF as there. Motion replaces Bullet's 24 contac
 - the ground moves at ``ROLLING_RADIUS`` per wheel radian over an effective track
   ``EFFECTIVE_TRACK``: PyBullet loads the URDF's wheel cylinders as convex hulls with a 1 mm
   collision margin, so the robot rolls on a radius of 46 mm where the encoders and odometry
-  assume 45 mm (2.2 % faster than commanded), and turns 1 % slower than the track says;
+  assume 45 mm (2.2 % faster than commanded), and turns as on a 5 % wider track;
 - the pose integrates the sub-steps at 240 Hz as Bullet does (exact arcs).
 
 Contact is the body box (:mod:`d3dwa_bullet.robot`) within ``CONTACT_MARGIN`` of an obstacle.
@@ -51,9 +51,10 @@ HULL_MARGIN = 0.001
 """Bullet's collision margin around the convex hull of a URDF cylinder, m (``getDynamicsInfo``)."""
 ROLLING_RADIUS = WHEEL_RADIUS + HULL_MARGIN
 """Radius the simulated wheels roll on, m (the hull's margin adds to the URDF's radius)."""
-EFFECTIVE_TRACK = 0.2067
-"""Track that maps wheel speeds to Bullet's yaw rate, m: fitted to steady turns in PyBullet
-(``tools/bench/kinematic_calibration.py``), 3 % over ``TRACK`` (the hull's contact patch)."""
+EFFECTIVE_TRACK = 0.21
+"""Track that maps wheel speeds to Bullet's yaw rate, m: the best of a grid fitted to PyBullet's
+paths under random commands (``python -m tools.bench.kinematic_calibration``), 5 % over
+``TRACK``: the 25 mm wide hulls touch the floor off their mid-planes."""
 BASE_MASS = 6.4
 """Mass of base_link in the URDF, kg (the part the physics randomisation's mass scale acts on)."""
 OTHER_MASS = 0.71
