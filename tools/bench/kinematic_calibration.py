@@ -47,6 +47,21 @@ def wheel_shape() -> dict[str, float | int]:
     }
 
 
+def straight_ratios(speeds: Sequence[float] = (0.1, 0.2, 0.3, 0.4)) -> dict[str, float]:
+    """PyBullet's forward speed over the commanded one on a straight run, per speed (m/s): the
+    distance covered in 5 s after 3 s to settle, over speed * 5 s."""
+    out = {}
+    for v in speeds:
+        with Simulator(EMPTY) as bullet:
+            for _ in range(30):
+                bullet.step(v, 0.0)
+            x0 = np.array(bullet.true_pose()[:2])
+            for _ in range(50):
+                bullet.step(v, 0.0)
+            out[f"{v:g}"] = float(np.hypot(*(np.array(bullet.true_pose()[:2]) - x0)) / (5.0 * v))
+    return out
+
+
 def sequence(seed: int) -> list[tuple[float, float]]:
     """A random command sequence: (v m/s, w rad/s) per control period."""
     rng = np.random.default_rng(seed)
@@ -98,12 +113,14 @@ def main(argv: Sequence[str] | None = None) -> None:
         kinematic.ROLLING_RADIUS, kinematic.EFFECTIVE_TRACK = saved
     grid.sort(key=lambda g: g["mean_error_mm"])
     nominal = next(g for g in grid if g["radius_m"] == 0.045 and g["track_m"] == 0.2)
-    result = {"wheel": wheel_shape(), "best": grid[0], "nominal": nominal, "in_use":
+    result = {"wheel": wheel_shape(), "straight_speed_ratio": straight_ratios(), "best": grid[0], "nominal": nominal, "in_use":
               {"radius_m": saved[0], "track_m": saved[1]}, "grid": grid}  # fmt: skip
     if args.json:
         print(json.dumps(result, indent=1))
         return
     w, b = result["wheel"], grid[0]
+    ratios = ", ".join(f"{k} m/s {r:.3f}" for k, r in result["straight_speed_ratio"].items())
+    print(f"PyBullet's speed over the commanded one, straight: {ratios}")
     print(
         f"PyBullet's wheel: geometry type {w['geometry_type']} (mesh: {w['is_mesh']}), margin {w['margin_m']} m"
     )
