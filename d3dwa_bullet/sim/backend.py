@@ -83,6 +83,10 @@ class SimBackend(Protocol):
         """One control period under the commanded (v, w); returns the command applied."""
         ...
 
+    def odometry_pose(self) -> tuple[float, float, float]:
+        """Raw wheel-odometry pose with noise on, else ground truth."""
+        ...
+
     def close(self) -> None: ...
 
 

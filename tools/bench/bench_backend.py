@@ -19,6 +19,7 @@ import argparse
 import json
 import time
 from collections.abc import Callable, Sequence
+from typing import Any
 
 from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.episode import EpisodeConfig, run_episode
@@ -75,7 +76,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         ap.error("--repeats and --parts-repeats must be >= 1")
     worlds = [load_world(name) for name in args.worlds.split(",")]
     methods = args.methods.split(",")
-    cells = []
+    cells: list[dict[str, Any]] = []
     for world in worlds:
         for method in methods:
             for backend in BACKENDS:  # warm-up: imports, policy, numba
@@ -92,7 +93,7 @@ def main(argv: Sequence[str] | None = None) -> None:
                           "outcome": outcome, "ratio": cpu["pybullet"] / cpu["kinematic"]})  # fmt: skip
     total = {b: sum(c["cpu_s"][b] for c in cells) for b in BACKENDS}
     nsteps = {b: sum(c["steps"][b] for c in cells) for b in BACKENDS}
-    summary = {
+    summary: dict[str, Any] = {
         "episodes_per_backend": len(cells),
         "cpu_s": total,
         "ratio_per_episode": total["pybullet"] / total["kinematic"],
@@ -113,10 +114,10 @@ def main(argv: Sequence[str] | None = None) -> None:
           f"{total['kinematic']:.1f} s: {summary['ratio_per_episode']:.2f}x per episode, "
           f"{summary['ratio_per_step']:.2f}x per step; {summary['outcomes_equal']} of {len(cells)} "
           "outcomes equal")  # fmt: skip
-    for name, p in summary["parts"].items():
-        print(f"{name}: lidar {p['lidar_pybullet_us']:.0f} us (rayTestBatch) vs {p['lidar_kinematic_us']:.0f} "
-              f"us (numba); a step's motion {p['step_pybullet_us']:.0f} us (Bullet) vs "
-              f"{p['step_kinematic_us']:.1f} us (kinematic)")  # fmt: skip
+    for name, part in summary["parts"].items():
+        print(f"{name}: lidar {part['lidar_pybullet_us']:.0f} us (rayTestBatch) vs {part['lidar_kinematic_us']:.0f} "
+              f"us (numba); a step's motion {part['step_pybullet_us']:.0f} us (Bullet) vs "
+              f"{part['step_kinematic_us']:.1f} us (kinematic)")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -113,7 +114,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         kinematic.ROLLING_RADIUS, kinematic.EFFECTIVE_TRACK = saved
     grid.sort(key=lambda g: g["mean_error_mm"])
     nominal = next(g for g in grid if g["radius_m"] == 0.045 and g["track_m"] == 0.2)
-    result = {"wheel": wheel_shape(), "straight_speed_ratio": straight_ratios(), "best": grid[0], "nominal": nominal, "in_use":
+    result: dict[str, Any] = {"wheel": wheel_shape(), "straight_speed_ratio": straight_ratios(), "best": grid[0], "nominal": nominal, "in_use":
               {"radius_m": saved[0], "track_m": saved[1]}, "grid": grid}  # fmt: skip
     if args.json:
         print(json.dumps(result, indent=1))
