@@ -86,8 +86,8 @@ def main(argv: Sequence[str] | None = None) -> None:
             outcome = {}
             for _ in range(args.repeats):
                 for backend in BACKENDS:
-                    c, n, outcome[backend] = episode_cpu(world, method, backend)
-                    cpu[backend] += c / args.repeats
+                    spent, n, outcome[backend] = episode_cpu(world, method, backend)
+                    cpu[backend] += spent / args.repeats
                     steps[backend] = n
             cells.append({"world": world.name, "method": method, "cpu_s": cpu, "steps": steps,
                           "outcome": outcome, "ratio": cpu["pybullet"] / cpu["kinematic"]})  # fmt: skip
