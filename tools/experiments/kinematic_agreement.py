@@ -24,6 +24,8 @@ import shutil
 from collections.abc import Sequence
 from pathlib import Path
 
+from scipy import stats
+
 from d3dwa_bullet.cli.app import main as d3dwa
 from d3dwa_bullet.evaluation.jobs import row_log_path
 from d3dwa_bullet.evaluation.plotting import trajectory_figure
@@ -109,8 +111,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     runs = Path(args.runs)
     if not runs.is_dir():
         ap.error(f"{runs}: not a directory")
-    lines = ["| family | layer | method | profile | success (kin - PyBullet) | robot score (kin - PyBullet) |",
-             "|---|---|---|---|---|---|"]  # fmt: skip
+    lines = [
+        "Each cell: family, recovery layer, method, profile; then the readings of kinematic - PyBullet.",
+        "",
+    ]
     differ: list[tuple[Path, Path, tuple[dict, dict]]] = []
     counts = []
     for family in FAMILIES:
@@ -121,15 +125,20 @@ def main(argv: Sequence[str] | None = None) -> None:
                 record = compare(kin, ref, method) if both else None
                 for profile in PROFILES:
                     cells = [cell_text(record, profile, m) for m, _ in METRICS]
-                    lines.append(
-                        f"| {family} | {recovery} | {method} | {profile} | {cells[0]} | {cells[1]} |"
-                    )
+                    lines += [f"- {family}, layer {recovery}, {method}, {profile}:", f"  success {cells[0]};",
+                              f"  robot score {cells[1]}"]  # fmt: skip
             if both:
                 pairs = disagreements(kin, ref)
                 differ += [(kin, ref, p) for p in pairs]
                 shared = {(r["world"], r["method"], r["noise"]) for r in read_results(ref)}
-                counts.append(f"- {family}, recovery {recovery}: {len(shared)} pairs, {len(pairs)} with "
-                              "different outcomes")  # fmt: skip
+                kin_goal = sum(k["outcome"] == "goal" for k, _ in pairs)
+                ref_goal = sum(r["outcome"] == "goal" for _, r in pairs)
+                bound = stats.binomtest(len(pairs), len(shared)).proportion_ci(0.95).high
+                counts += [
+                    f"- {family}, recovery {recovery}: {len(shared)} pairs, {len(pairs)} with different outcomes",
+                    f"  (the goal on the kinematic side only: {kin_goal}, on PyBullet's only: {ref_goal});",
+                    f"  their rate at most {100 * bound:.0f} % (95 %, Clopper-Pearson)",
+                ]
     text = "\n".join(lines + ["", *counts]) + "\n"
     print(text)
     if not args.page:
