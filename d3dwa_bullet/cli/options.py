@@ -272,7 +272,7 @@ def add_sim_backend_option(p: argparse.ArgumentParser) -> None:
         "--backend",
         default=DEFAULT_BACKEND,
         help=f"simulator: {', '.join(BACKENDS)} (pybullet: the default and the reference; kinematic: "
-        "a 2D ray cast and wheel kinematics, 4-8x cheaper, equivalent only where "
+        "a 2D ray cast and wheel kinematics, about 5x cheaper, equivalent only where "
         "docs/pilots/kinematic-agreement/ reads so)",
     )
 
