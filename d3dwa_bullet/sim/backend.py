@@ -24,6 +24,7 @@ This module imports neither PyBullet nor numba: a command checks ``--backend`` b
 from __future__ import annotations
 
 import importlib
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Protocol
 
 from d3dwa_bullet.errors import ConfigError
@@ -99,7 +100,7 @@ def check_backend(name: str, gui: bool = False) -> str:
     return name
 
 
-def check_backend_worlds(name: str, worlds: list[World] | tuple[World, ...]) -> None:
+def check_backend_worlds(name: str, worlds: Sequence[World]) -> None:
     """ConfigError naming the first world and obstacle the backend cannot simulate: the
     kinematic backend casts and touches boxes and cylinders only."""
     if name == DEFAULT_BACKEND:

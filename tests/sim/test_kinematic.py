@@ -167,3 +167,29 @@ def test_make_simulator_and_its_refusals():
         ConfigError, match="world 'odd': obstacle 0 is a Mesh; the kinematic backend"
     ):
         KinematicSimulator(odd)
+
+
+def test_a_world_the_backend_cannot_cast_is_refused_before_any_episode(tmp_path):
+    from d3dwa_bullet.episode import EpisodeConfig
+    from d3dwa_bullet.evaluation.jobs import Job, evaluate
+    from d3dwa_bullet.sim.backend import check_backend_worlds
+
+    class Mesh:
+        height = 1.0
+
+    odd = World(
+        "odd", "", (0.0, 0.0, 0.0), (1.0, 0.0), obstacles=(Cylinder((3.0, 0.0), 0.2), Mesh())
+    )  # type: ignore[arg-type]
+    check_backend_worlds("pybullet", [odd])  # PyBullet's own loaders decide there
+    with pytest.raises(
+        ConfigError, match="world 'odd': obstacle 1 is a Mesh; --backend kinematic casts boxes"
+    ):
+        check_backend_worlds("kinematic", [SMALL, odd])
+    with pytest.raises(ConfigError, match="obstacle 1 is a Mesh"):
+        evaluate(
+            [Job(odd, "dwa3", 0)],
+            tmp_path / "out",
+            config=EpisodeConfig(backend="kinematic"),
+            progress=False,
+        )
+    assert not (tmp_path / "out" / "results.csv").exists()
