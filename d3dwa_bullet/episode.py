@@ -26,9 +26,9 @@ from d3dwa_bullet.planning.progress import NoProgressClock
 from d3dwa_bullet.planning.recovery import Recovery, RecoveryCommand
 from d3dwa_bullet.planning.scan_filter import ScanFilter, check_driven_filter
 from d3dwa_bullet.planning.velocity_command import LocalPlanner, PlannerInputs
+from d3dwa_bullet.sim.backend import make_simulator
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.scan import LaserScan, scan_points_body
-from d3dwa_bullet.sim.simulator import Simulator
 from d3dwa_bullet.timing import perf
 from d3dwa_bullet.world.model import World
 
@@ -70,6 +70,8 @@ class EpisodeResult:
     noise: str = "none"
     recovery: str = "none"
     """The recovery layer the episode ran with (``--recovery``)."""
+    backend: str = "pybullet"
+    """The simulator backend that ran the episode (``--backend``)."""
     source: str = ""
     """Where a method from outside the package came from (``Controller.origin``); empty for
     a built-in method."""
@@ -82,7 +84,7 @@ class EpisodeResult:
     def summary(self) -> dict[str, Any]:
         """The JSON/CSV row: world, method, seed, noise, outcome, time_s, tl_m, pd_rad,
         min_clearance_m, steps, and recovery when a recovery layer ran (a paper-track row keeps
-        the paper track's columns), and method_source and overruns for a method from outside
+        the paper track's columns), backend when it is not PyBullet, and method_source and overruns for a method from outside
         the package."""
         row = {
             "world": self.world,
@@ -98,6 +100,8 @@ class EpisodeResult:
         }
         if self.recovery != "none":
             row["recovery"] = self.recovery
+        if self.backend != "pybullet":
+            row["backend"] = self.backend
         if self.source:
             row |= {"method_source": self.source, "overruns": self.overruns}
         return row
@@ -162,7 +166,8 @@ class Episode:
         self.obs_dim = len(observation_layout(observation))
         limit = world.time_limit if world.time_limit is not None else config.termination.time_limit
         self.max_steps = int(round(limit * config.sim.control_hz))
-        self.sim = Simulator(
+        self.sim = make_simulator(
+            config.backend,
             world,
             sim=config.sim,
             limits=config.planner.limits,
@@ -299,6 +304,7 @@ class Episode:
             steps=steps,
             noise=self.noise_name,
             recovery=self.config.recovery_name,
+            backend=self.config.backend,
             log=log | {"true_x": poses[:, 0], "true_y": poses[:, 1], "true_yaw": poses[:, 2]},
             observations=np.asarray(self.observations).reshape(-1, self.obs_dim),
         )

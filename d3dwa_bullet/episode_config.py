@@ -14,6 +14,7 @@ from d3dwa_bullet.params import (
     TerminationParams,
 )
 from d3dwa_bullet.planning.scan_filter import check_scan_filter
+from d3dwa_bullet.sim.backend import DEFAULT_BACKEND, check_backend
 from d3dwa_bullet.sim.lidar_params import LidarParams
 
 
@@ -32,8 +33,13 @@ class EpisodeConfig:
     """The scan filter chain between the lidar and everything that reads it (beyond the paper,
     :data:`~d3dwa_bullet.planning.scan_filter.SCAN_FILTERS`; "none" = the paper's stack)."""
 
+    backend: str = DEFAULT_BACKEND
+    """The simulator backend (:data:`~d3dwa_bullet.sim.backend.BACKENDS`): PyBullet, the reference,
+    or the kinematic one (docs/design/backends.md)."""
+
     def __post_init__(self) -> None:
         check_scan_filter(self.scan_filter)
+        check_backend(self.backend)
 
     @property
     def recovery_name(self) -> str:

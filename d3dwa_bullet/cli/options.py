@@ -35,6 +35,7 @@ from d3dwa_bullet.limits import (
 from d3dwa_bullet.method_specs import FIXED, HELD_REFERENCE, LEARNED, REFERENCE, barn_twin
 from d3dwa_bullet.params import RECOVERY_KINDS, PlannerParams, SimParams, recovery_params
 from d3dwa_bullet.planning.scan_filter import SCAN_FILTERS
+from d3dwa_bullet.sim.backend import BACKENDS, DEFAULT_BACKEND, check_backend
 from d3dwa_bullet.world.model import World, goal_in_obstacle, start_in_collision
 from d3dwa_bullet.world.registry import load_world, world_file_kind
 from randomization.profiles import load_profile
@@ -222,6 +223,18 @@ def add_episode_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--control-hz", type=int, default=10, help="control (planning) rate")
     add_recovery_options(p)
+    add_sim_backend_option(p)
+
+
+def add_sim_backend_option(p: argparse.ArgumentParser) -> None:
+    """--backend: the simulator that runs the episodes (docs/design/backends.md)."""
+    p.add_argument(
+        "--backend",
+        default=DEFAULT_BACKEND,
+        help=f"simulator: {', '.join(BACKENDS)} (pybullet: the default and the reference; kinematic: "
+        "a 2D ray cast and wheel kinematics, about 5x cheaper, equivalent only where "
+        "docs/pilots/kinematic-agreement/ reads so)",
+    )
 
 
 def add_recovery_options(p: argparse.ArgumentParser) -> None:
@@ -279,6 +292,9 @@ def episode_config(args: argparse.Namespace) -> EpisodeConfig:
         planner=PlannerParams(control_period=sim.control_period),
         recovery=recovery_arg(args, sim.control_period),
         scan_filter=scan_filter_arg(args),
+        backend=check_backend(
+            getattr(args, "backend", DEFAULT_BACKEND), getattr(args, "gui", False)
+        ),
     )
 
 

@@ -22,6 +22,7 @@ from d3dwa_bullet.cli.options import (
 from d3dwa_bullet.cli.output import check_out_file, json_text
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.method_specs import METHODS
+from d3dwa_bullet.sim.backend import check_backend_worlds
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -54,6 +55,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     # Input is checked before the simulator is imported, so a refusal comes at once.
     config = episode_config(args)
     world = load_task_world(args)
+    check_backend_worlds(config.backend, [world])
     noise_arg(args.noise)
     seed_arg(args.seed)
     if args.onnx is not None and args.policy is not None:

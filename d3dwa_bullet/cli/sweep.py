@@ -17,6 +17,7 @@ from d3dwa_bullet.cli.options import (
     add_backend_options,
     add_recovery_options,
     add_reuse_options,
+    add_sim_backend_option,
     default_methods,
     episode_config,
     list_arg,
@@ -86,6 +87,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--physics-hz", type=int, default=240, help="physics rate")
     p.add_argument("--control-hz", type=int, default=10, help="control (planning) rate")
     add_recovery_options(p)
+    add_sim_backend_option(p)
     add_reuse_options(p)
     p.set_defaults(func=cmd_sweep, interrupted="finished episodes are kept in results.csv")
 

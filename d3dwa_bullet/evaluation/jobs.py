@@ -57,6 +57,7 @@ from d3dwa_bullet.evaluation.same_run import check_same_run, run_fields, run_set
 from d3dwa_bullet.evaluation.scores import add_scores, needs_scores, score_cells
 from d3dwa_bullet.io import file_stem
 from d3dwa_bullet.loading import parse_json
+from d3dwa_bullet.sim.backend import check_backend_worlds
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.noise_config import NoiseConfig
 from d3dwa_bullet.world.model import World
@@ -218,11 +219,12 @@ def _evaluate(
     settings: dict[str, Any] | None,
     reuse: Reuse | None,
 ) -> list[dict[str, Any]]:
-    recovery = config.recovery_name
-    fields = run_fields(fields, recovery, (j.method for j in jobs))
-    settings = run_settings(settings, recovery)
+    recovery, backend = config.recovery_name, config.backend
+    fields = run_fields(fields, recovery, (j.method for j in jobs), backend)
+    settings = run_settings(settings, recovery, backend)
     v_max = config.planner.limits.v_max
     check_distinct(jobs)
+    check_backend_worlds(backend, [j.world for j in jobs])
     check_scan_filters(((j.method, j.policy) for j in jobs), config.scan_filter)
     unique: dict[Key, Job] = {}
     for j in jobs:  # a world or seed named twice is one episode, not two rows
@@ -231,7 +233,7 @@ def _evaluate(
     kept = set(kept_keys(listed))  # deterministic without noise: the first seed only
     unique = {k: j for k, j in unique.items() if k in kept}
     jobs = list(unique.values())
-    check_results_dir(out, fields, recovery)
+    check_results_dir(out, fields, recovery, backend)
     drop_partial_row(out / "results.csv")
     done = {row_key(r) for r in read_results(out)}
     keys = [j.key for j in jobs]

@@ -77,6 +77,9 @@ RECOVERY_FIELD = "recovery"
 """The column a run with a recovery layer adds (its ``--recovery`` name in every row); a
 paper-track directory has no such column, so its files keep the paper track's bytes, and
 its rows read as recovery "none"."""
+BACKEND_FIELD = "backend"
+"""The column a run on another simulator backend than PyBullet adds (its ``--backend`` name in
+every row); a PyBullet directory has no such column, so its files keep their bytes."""
 SOURCE_FIELD = "method_source"
 """The column a run with a method from outside the package adds: where it came from
 (``module:Name (distribution version)``, ``module:Name in FILE (sha256 HEX)`` or ``FILE (sha256
@@ -98,6 +101,17 @@ def with_recovery(fields: Sequence[str], recovery: str) -> tuple[str, ...]:
 def unscored(fields: Sequence[str]) -> list[str]:
     """The columns a run of ``fields`` wrote before the score (UNSCORED_FORMAT)."""
     return [f for f in fields if f not in SCORE_FIELDS]
+
+
+def with_backend(fields: Sequence[str], backend: str) -> tuple[str, ...]:
+    """The CSV columns of a run: fields, plus BACKEND_FIELD when it is not PyBullet."""
+    return tuple(fields) if backend == "pybullet" else (*fields, BACKEND_FIELD)
+
+
+def backend_of(out: Path, meta: Mapping[str, Any] | None = None) -> str:
+    """The --backend a results directory's episodes ran on ("pybullet" when meta.json names none)."""
+    meta = read_meta(out) if meta is None else meta
+    return str(meta.get("settings", {}).get("backend", "pybullet"))
 
 
 def with_sources(fields: Sequence[str], external: bool) -> tuple[str, ...]:
@@ -200,12 +214,14 @@ def csv_header(out: Path) -> list[str] | None:
 
 
 def check_results_dir(
-    out: Path, fields: Sequence[str] | None = None, recovery: str | None = None
-) -> None:
+    out: Path, fields: Sequence[str] | None = None, recovery: str | None = None,
+    backend: str | None = None,
+) -> None:  # fmt: skip
     """Refuse a results directory written by another format version, or (with fields) one
     whose results.csv has other columns (e.g. a sweep's directory given to eval), or (with
     recovery, the command's --recovery) one whose episodes ran with another recovery layer:
-    the paper track and a recovery track never share a directory. A results.csv or
+    the paper track and a recovery track never share a directory; nor (with backend, the
+    command's --backend) do two simulator backends. A results.csv or
     meta.json that is a symbolic link is refused: a command never writes through one."""
     for name in ("results.csv", "meta.json"):
         if (out / name).is_symlink():
@@ -231,6 +247,12 @@ def check_results_dir(
             f"{out / 'results.csv'}: its episodes ran with --recovery {there}, this command "
             f"has --recovery {recovery}; one directory holds one recovery setting: use "
             "another --out directory"
+        )
+    there = backend_of(out) if header is not None else None
+    if backend is not None and there is not None and there != backend:
+        raise ResultsError(
+            f"{out / 'results.csv'}: its episodes ran on --backend {there}, this command has "
+            f"--backend {backend}; one directory never mixes backends: use another --out directory"
         )
     if fields is not None and header is not None and header not in (list(fields), unscored(fields)):
         kind = read_meta(out).get("settings", {}).get("kind", "another command")

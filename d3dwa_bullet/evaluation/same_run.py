@@ -24,6 +24,7 @@ from d3dwa_bullet.evaluation.results import (
     read_meta,
     read_results,
     row_key,
+    with_backend,
     with_recovery,
     with_sources,
 )
@@ -31,18 +32,25 @@ from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.method_specs import method_family
 
 
-def run_fields(fields: Sequence[str], recovery: str, methods: Iterable[str]) -> tuple[str, ...]:
-    """The CSV columns of a run of methods: fields, with the recovery and source columns it needs."""
+def run_fields(
+    fields: Sequence[str], recovery: str, methods: Iterable[str], backend: str = "pybullet"
+) -> tuple[str, ...]:
+    """The CSV columns of a run of methods: fields, with the recovery, backend and source
+    columns it needs."""
     external = any(method_family(m) == "external" for m in methods)
-    return with_sources(with_recovery(fields, recovery), external)
+    return with_sources(with_backend(with_recovery(fields, recovery), backend), external)
 
 
-def run_settings(settings: Mapping[str, Any] | None, recovery: str) -> dict[str, Any]:
-    """A command's settings as its meta.json records them: with the score form, and the
-    recovery layer when one runs."""
+def run_settings(
+    settings: Mapping[str, Any] | None, recovery: str, backend: str = "pybullet"
+) -> dict[str, Any]:
+    """A command's settings as its meta.json records them: with the score form, the recovery
+    layer when one runs, and the simulator backend when it is not PyBullet."""
     out = dict(settings or {"kind": "eval"}) | {"score_form": SCORE_FORM}
     if recovery != "none":
         out["recovery"] = recovery
+    if backend != "pybullet":
+        out["backend"] = backend
     return out
 
 
@@ -53,10 +61,10 @@ def check_resumable(
     """ResultsError unless out takes a run of methods with these columns, episode config and
     settings (as given to ``evaluate``), whatever its jobs: the checks of
     :func:`check_same_run` that need no job, with the directory's format and columns."""
-    recovery = config.recovery_name
-    check_results_dir(out, run_fields(fields, recovery, methods), recovery)
+    recovery, backend = config.recovery_name, config.backend
+    check_results_dir(out, run_fields(fields, recovery, methods, backend), recovery, backend)
     if _holds_rows(out):
-        _check_settings(out, config, run_settings(settings, recovery))
+        _check_settings(out, config, run_settings(settings, recovery, backend))
 
 
 def _holds_rows(out: Path) -> bool:
@@ -103,6 +111,8 @@ def check_same_run(
 def _check_settings(out: Path, config: Any, settings: Mapping[str, Any]) -> None:
     meta = read_meta(out)
     here = config_record(config)
+    if isinstance(meta.get("config"), dict):  # a directory from before backends ran PyBullet
+        meta["config"].setdefault("backend", "pybullet")
     diffs = "; ".join(
         f"{name} {old!r} there, {new!r} here"
         for name, old, new in differences(meta.get("config", here), here)

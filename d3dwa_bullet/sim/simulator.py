@@ -38,6 +38,7 @@ from d3dwa_bullet.geometry import wrap_angle_modular
 from d3dwa_bullet.params import RobotLimits, SimParams
 from d3dwa_bullet.resources import urdf_path
 from d3dwa_bullet.robot import AXLE_HEIGHT, LIDAR_MOUNT, TRACK, WHEEL_RADIUS
+from d3dwa_bullet.sim.backend import fuse_period, limit_command
 from d3dwa_bullet.sim.bullet import p
 from d3dwa_bullet.sim.estimator import PoseEstimator
 from d3dwa_bullet.sim.lidar import Lidar, LidarParams
@@ -264,13 +265,7 @@ class Simulator:
 
         Reverse down to -v_max is allowed: the planner never commands it (v >= 0), the
         recovery layer's back-up does."""
-        lim, dt = self.limits, self.sim.control_period
-        v0, w0 = self.command
-        v = min(max(v, -lim.v_max), lim.v_max)
-        w = min(max(w, -lim.w_max), lim.w_max)
-        v = min(max(v, v0 - lim.a_max * dt), v0 + lim.a_max * dt)
-        w = min(max(w, w0 - lim.alpha_max * dt), w0 + lim.alpha_max * dt)
-        return v, w
+        return limit_command(self.limits, self.sim.control_period, self.command, v, w)
 
     def _apply_wheels(self, v: float, w: float, slip: np.ndarray) -> None:
         omega = np.array(
@@ -313,13 +308,15 @@ class Simulator:
     def _fuse(self, t: float, odom_twist: tuple[float, float], w_true: float) -> None:
         """Fuse the readings of the period ending at t (s): odometry (v, w) and the true mean
         yaw rate w_true (rad/s) through the gyro model, then predict to t, then any pose fix."""
-        est = self.estimator
-        est.update_odometry(*odom_twist)
-        est.update_gyro(self.noise.gyro(w_true, self.sim.control_period))
-        est.predict(t)
-        fix = self.noise.pose_fix(t, self.true_pose())
-        if fix is not None:
-            est.update_pose_fix(*fix)
+        fuse_period(
+            self.estimator,
+            self.noise,
+            t,
+            self.sim.control_period,
+            odom_twist,
+            w_true,
+            self.true_pose(),
+        )
 
     def odometry_pose(self) -> tuple[float, float, float]:
         """Raw wheel-odometry pose (noise on), else ground truth."""
