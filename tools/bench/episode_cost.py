@@ -144,8 +144,9 @@ def run(args: argparse.Namespace, tmp: Path) -> list[dict[str, Any]]:
 
 def table(cells: list[dict[str, Any]], baseline: str) -> str:
     """The cells as a markdown table."""
-    lines = [f"| family | workers | episodes | CPU s (A / {baseline}) | episodes per core-minute "
-             f"(A / {baseline}) | CPU ratio | wall speed-up vs 1 worker (A / {baseline}) | same episodes |",
+    lines = [f"B = {baseline}. CPU ratio = B / A; speed-up = wall of 1 worker / wall of N.", "",
+             "| family | workers | episodes | CPU s A / B | episodes per core-min A / B | CPU ratio "
+             "| speed-up A / B | same episodes |",
              "|---|---:|---:|---:|---:|---:|---:|---|"]  # fmt: skip
     for c in cells:
         a, b = c["A"], c["B"]
