@@ -21,7 +21,7 @@ import numpy as np
 from d3dwa_bullet.errors import CheckpointError
 from d3dwa_bullet.learning.agents.checkpoint import WEIGHTS_FILE, load_checkpoint, read_meta
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
-from d3dwa_bullet.learning.agents.numpy_policy import read_numpy_weights, write_numpy_weights
+from d3dwa_bullet.learning.agents.numpy_policy import read_numpy_weights, write_beside_weights
 from d3dwa_bullet.resources import policies_dir
 from tools.entry import ToolParser, tool_main
 
@@ -38,7 +38,7 @@ def write_one(directory: Path) -> str:
         return f"{directory}: {meta['agent']} checkpoint, no weights.pt: skipped"
     state = {k: v.detach().cpu().numpy() for k, v in agent.state_dict().items()}
     sha = read_meta(directory)["files"][WEIGHTS_FILE]["sha256"]
-    path = write_numpy_weights(directory, state, sha)
+    path = write_beside_weights(directory, state)
     back, source = read_numpy_weights(path)
     if source != sha or sorted(back) != sorted(state):
         raise CheckpointError(f"{path}: read back with other names or digest than written")

@@ -17,6 +17,7 @@ from d3dwa_bullet.learning.agents.checkpoint import NUMPY_WEIGHTS_FILE, WEIGHTS_
 from d3dwa_bullet.learning.agents.numpy_policy import (
     load_numpy_policy,
     read_numpy_weights,
+    write_beside_weights,
     write_numpy_weights,
 )
 from d3dwa_bullet.learning.agents.policy import load_policy
@@ -87,3 +88,18 @@ def test_running_a_shipped_policy_imports_no_torch():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip().splitlines()[-1] == "False"
+
+
+def test_a_copy_written_beside_a_checkpoint_runs_it(tmp_path):
+    directory = tmp_path / "seed-2"
+    shutil.copytree(policies_dir() / "d3dwa-dr" / "seed-2", directory)
+    (directory / NUMPY_WEIGHTS_FILE).unlink()
+    tensors = torch.load(directory / WEIGHTS_FILE, map_location="cpu", weights_only=True)
+    write_beside_weights(directory, {k: v.numpy() for k, v in tensors.items()})
+    fast, _, _ = load_numpy_policy(directory)
+    slow, _, _ = load_policy(directory)
+    obs = np.random.default_rng(2).normal(size=(200, fast.obs_dim))
+    assert [fast(o) for o in obs] == [slow(o) for o in obs]
+    (directory / WEIGHTS_FILE).write_bytes(b"not the weights")
+    with pytest.raises(CheckpointError, match="truncated or altered"):
+        write_beside_weights(directory, {k: v.numpy() for k, v in tensors.items()})

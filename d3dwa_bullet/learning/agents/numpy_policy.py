@@ -110,6 +110,17 @@ def write_numpy_weights(
     return path
 
 
+def write_beside_weights(
+    directory: str | os.PathLike[str], state: Mapping[str, np.ndarray]
+) -> Path:
+    """``write_numpy_weights`` of a saved D3QN checkpoint's state_dict (as numpy arrays), tied to
+    the SHA-256 its meta.json records for weights.pt (checked against the file first)."""
+    root = Path(directory)
+    meta = read_meta(root)
+    check_file(root, WEIGHTS_FILE, meta)
+    return write_numpy_weights(root, state, meta["files"][WEIGHTS_FILE]["sha256"])
+
+
 def read_numpy_weights(path: Path) -> tuple[dict[str, np.ndarray], str]:
     """(arrays by name, the SHA-256 of their weights.pt) of a ``weights.npz``; CheckpointError
     (one line naming the file) if it cannot be read as a plain .npz of arrays."""
