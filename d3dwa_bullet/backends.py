@@ -39,6 +39,7 @@ from typing import Any, TypeVar
 import cv2
 
 from d3dwa_bullet.errors import BackendError, D3DWAError
+from d3dwa_bullet.sim.lidar_params import set_ray_threads
 
 RAY_CONNECT_TIMEOUT_S = 5.0
 """How long a Ray address may take to answer a gRPC handshake, s."""
@@ -59,9 +60,11 @@ def default_workers() -> int:
 
 def one_core_per_worker() -> None:
     """In a worker that shares the machine with others, keep OpenCV's distance transform
-    (the planner's) on one thread: one process per core already fills the cores, and a
-    single process (training, one episode) keeps OpenCV's default of every core."""
+    (the planner's) and the lidar's ray batch (``sim.lidar_params.set_ray_threads``) on one
+    thread each: one process per core already fills the cores, and a single process (training,
+    one episode) keeps their default of every core."""
     cv2.setNumThreads(1)
+    set_ray_threads(1)
 
 
 def _init_pool_worker() -> None:

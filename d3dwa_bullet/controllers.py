@@ -63,17 +63,22 @@ def make_controller(
         return Controller(name, actions=REFERENCE[base], source=source, uniform=True, hold=hold)
     if onnx is not None:
         return _onnx_controller(name, policy_path, onnx)
-    # start-up cost, and the robot extra: loading a checkpoint imports torch, which fixed and
-    # reference methods and an ONNX policy (a robot without torch) never need
-    from d3dwa_bullet.learning.agents.checkpoint import META_FILE
-    from d3dwa_bullet.learning.agents.policy import load_policy
+    # start-up cost, and the robot extra: loading a checkpoint's weights.pt imports torch (seconds),
+    # which fixed and reference methods, an ONNX policy (a robot without torch) and a checkpoint
+    # carrying weights.npz (every shipped D3QN seed: docs/design/episode-cost.md) never need
+    from d3dwa_bullet.learning.agents.checkpoint_files import META_FILE
+    from d3dwa_bullet.learning.agents.numpy_policy import load_numpy_policy
     from d3dwa_bullet.learning.agents.policy_terms import checkpoint_terms
 
     path, source = one_policy(name, policy_path)
     kind = method_observation(name)
-    policy, actions, meta = load_policy(
-        path, expected_actions=LEARNED[name], expected_observation=(kind, f"method {name!r}")
-    )
+    fed = (kind, f"method {name!r}")
+    loaded = load_numpy_policy(path, expected_actions=LEARNED[name], expected_observation=fed)
+    if loaded is None:
+        from d3dwa_bullet.learning.agents.policy import load_policy
+
+        loaded = load_policy(path, expected_actions=LEARNED[name], expected_observation=fed)
+    policy, actions, meta = loaded
     hold, trained_in, behind = checkpoint_terms(meta, str(path / META_FILE))
     return _learned(name, policy, actions, source, hold, trained_in, behind)
 

@@ -30,6 +30,7 @@ from d3dwa_bullet.sim.backend import make_simulator
 from d3dwa_bullet.sim.noise import NoiseModel
 from d3dwa_bullet.sim.scan import LaserScan, scan_points_body
 from d3dwa_bullet.timing import perf
+from d3dwa_bullet.world.cylinder_distance import world_distance
 from d3dwa_bullet.world.model import World
 
 LOG_FIELDS = (
@@ -289,7 +290,9 @@ class Episode:
         poses = np.asarray(self.truth)
         log = {name: np.asarray([r[i] for r in self.rows]) for i, name in enumerate(LOG_FIELDS)}
         clearance = (
-            body_clearance(self.world, poses) if self.world.obstacles else np.array([np.inf])
+            body_clearance(self.world, poses, distance=world_distance)
+            if self.world.obstacles
+            else np.array([np.inf])
         )
         steps = self.sim.step_count
         return EpisodeResult(

@@ -4,6 +4,7 @@ and the episode score (docs/design/score.md#score): outcome and time against a r
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -31,13 +32,22 @@ def posture_displacement(yaw: np.ndarray) -> float:
     return float(np.abs(np.arctan2(np.sin(d), np.cos(d))).sum())
 
 
-def body_clearance(world: World, poses: np.ndarray, samples_per_side: int = 6) -> np.ndarray:
+def body_clearance(
+    world: World,
+    poses: np.ndarray,
+    samples_per_side: int = 6,
+    distance: Callable[[World, np.ndarray], np.ndarray] | None = None,
+) -> np.ndarray:
     """Distance from Kachaka's body rectangle to the nearest obstacle at each pose.
 
     poses: (N, 3) x, y, yaw. Returns (N,) m (negative = overlap, +inf without obstacles).
+    distance: (world, points (M, 2) m) -> (M,) m, equal to ``World.distance`` (default); the
+    episode passes ``world.cylinder_distance.world_distance``, compiled and pruned.
     """
     outline = body_outline(np.asarray(poses).reshape(-1, 3), samples_per_side)
-    return world.distance(outline.reshape(-1, 2)).reshape(len(outline), -1).min(axis=1)
+    points = outline.reshape(-1, 2)
+    d = world.distance(points) if distance is None else distance(world, points)
+    return d.reshape(len(outline), -1).min(axis=1)
 
 
 SCORE_FORM = "kachaka-v2"

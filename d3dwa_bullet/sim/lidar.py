@@ -9,7 +9,7 @@ from operator import itemgetter
 import numpy as np
 
 from d3dwa_bullet.sim.bullet import p
-from d3dwa_bullet.sim.lidar_params import LidarParams  # re-exported: its old home
+from d3dwa_bullet.sim.lidar_params import LidarParams, ray_threads  # LidarParams: its old home
 from d3dwa_bullet.sim.scan import LaserScan
 
 
@@ -19,10 +19,11 @@ class Lidar:
     Rays are given in the lidar link's own frame (``parentObjectUniqueId`` /
     ``parentLinkIndex``), so Bullet places them from the link's current pose and the ray
     lists are built once. The lidar sits above the body, so no beam can hit the robot.
-    ``numThreads=0`` lets Bullet spread the beams over the cores; each beam's result does not
-    depend on the threading. One thread was tried and measured (docs/benchmarks.md): 21 %
-    slower for one simulator on an idle machine, no faster for training's two envs or a sweep's two
-    workers.
+    The batch runs on ``lidar_params.ray_threads()`` threads: 0 (the default) lets Bullet spread
+    the beams over the cores, which one simulator alone on an idle machine gains from (one thread
+    measured 21 % slower there); a pool worker sets 1 (``backends.one_core_per_worker``), since
+    ``--workers N`` on N cores oversubscribed them otherwise (docs/design/episode-cost.md). Each
+    beam's result does not depend on the threading.
     """
 
     def __init__(self, client: int, robot: int, link: int, params: LidarParams = LidarParams()):
@@ -37,7 +38,7 @@ class Lidar:
         """True ranges at the link's current pose: (beams,) float64, m; +inf where no hit."""
         hits = p.rayTestBatch(
             self._from, self._to, parentObjectUniqueId=self.robot, parentLinkIndex=self.link,
-            numThreads=0, physicsClientId=self.client,
+            numThreads=ray_threads(), physicsClientId=self.client,
         )  # fmt: skip
         frac = np.fromiter(map(itemgetter(2), hits), dtype=np.float64, count=len(self._to))
         out = frac * self.params.range_max

@@ -52,3 +52,20 @@ class LidarParams:
     def angles(self) -> np.ndarray:
         """(beams,) beam angles in the lidar frame, rad."""
         return self.angle_min + self.increment * np.arange(self.beams)
+
+
+_ray_threads = [0]  # the process's setting, read by every Lidar at each cast
+
+
+def set_ray_threads(threads: int) -> None:
+    """Threads of ``rayTestBatch`` for every lidar in this process: 0 lets Bullet use every core
+    (one simulator alone on the machine), 1 keeps the beams on the caller's thread (a pool worker
+    beside others: ``backends.one_core_per_worker``). Each beam's range is the same either way."""
+    if not (isinstance(threads, int) and threads >= 0):
+        raise ConfigError(f"ray threads must be an integer >= 0, got {threads!r}")
+    _ray_threads[0] = threads
+
+
+def ray_threads() -> int:
+    """The process's ``rayTestBatch`` thread count (``set_ray_threads``; 0 = every core)."""
+    return _ray_threads[0]

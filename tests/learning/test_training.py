@@ -18,6 +18,7 @@ from d3dwa_bullet.errors import CheckpointError, ConfigError, TrainingError
 from d3dwa_bullet.learning.agents.checkpoint import EXTRA_FILES, load_checkpoint, save_checkpoint
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent, D3QNConfig
 from d3dwa_bullet.learning.agents.dqdwa import DQDWAConfig
+from d3dwa_bullet.learning.agents.numpy_policy import load_numpy_policy
 from d3dwa_bullet.learning.agents.policy import load_policy
 from d3dwa_bullet.learning.env import D3DWAEnv
 from d3dwa_bullet.learning.training import (
@@ -117,12 +118,16 @@ def test_tiny_run_writes_checkpoint_config_and_metrics(tiny: str, tmp_path: Path
     assert {p.name for p in policy_dir.iterdir()} == {
         "meta.json",
         "weights.pt",
+        "weights.npz",  # the torch-free copy (numpy_policy)
         "config.json",
         "learning_curve.png",
     }
     policy, actions, meta = load_policy(policy_dir, expected_actions=ACTIONS_FULL)
     assert meta["method"] == "d3dwa" and meta["metadata"]["selected"] == "best"
     assert 0 <= policy(np.full(12, 0.5)) < 100
+    fast, _, _ = load_numpy_policy(policy_dir, expected_actions=ACTIONS_FULL)
+    obs = np.random.default_rng(0).normal(size=(50, 12))
+    assert [fast(o) for o in obs] == [policy(o) for o in obs]
     with pytest.raises(ConfigError, match="already holds a training run"):
         train(config, out, progress=False)
 

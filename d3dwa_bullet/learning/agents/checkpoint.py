@@ -7,6 +7,7 @@ Layout::
                         SHA-256 of every data file (so truncation and corruption are caught)
     <dir>/weights.pt    D3QN: the online network's state_dict (tensors only)
     <dir>/table.npy     DQDWA: the Q-table, (n_states, n_actions) float64
+    <dir>/weights.npz   D3QN, optional: weights.pt's tensors for torch-free evaluation (``numpy_policy``)
 
 Saving is atomic: everything is written and fsynced into a temporary sibling directory
 that then replaces ``<dir>``; if anything fails before that, an existing checkpoint is left
@@ -32,31 +33,29 @@ policies carry no training state.
 
 from __future__ import annotations
 
+from d3dwa_bullet.learning.agents.agent_types import Agent
 from d3dwa_bullet.learning.agents.checkpoint_files import (
     CONFIG_FILE,
     CURVE_FILE,
     EXTRA_FILES,
     FORMAT_VERSION,
     META_FILE,
+    NUMPY_WEIGHTS_FILE,
     REPLAY_FILE,
     SUMMARY_FILE,
     TABLE_FILE,
     TRAINING_STATE_FILE,
     TRAINING_TENSORS_FILE,
     WEIGHTS_FILE,
-    Agent,
 )
-from d3dwa_bullet.learning.agents.checkpoint_load import (
-    checked_file,
-    load_checkpoint,
-    read_meta,
-    torch_load_failure,
-)
+from d3dwa_bullet.learning.agents.checkpoint_load import load_checkpoint, torch_load_failure
+from d3dwa_bullet.learning.agents.checkpoint_meta import checked_file, read_meta
 from d3dwa_bullet.learning.agents.checkpoint_save import default_method, save_checkpoint
 
 __all__ = [
     "CONFIG_FILE",
     "CURVE_FILE",
+    "NUMPY_WEIGHTS_FILE",
     "EXTRA_FILES",
     "FORMAT_VERSION",
     "META_FILE",

@@ -8,9 +8,6 @@ import os
 from pathlib import Path
 from typing import Any
 
-from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
-from d3dwa_bullet.learning.agents.dqdwa import DQDWAAgent
-
 FORMAT_VERSION = 1
 META_FILE = "meta.json"
 WEIGHTS_FILE = "weights.pt"
@@ -22,14 +19,15 @@ SUMMARY_FILE = "summary.json"
 TRAINING_STATE_FILE = "training_state.json"
 TRAINING_TENSORS_FILE = "training_state.pt"
 REPLAY_FILE = "replay.npz"
+NUMPY_WEIGHTS_FILE = "weights.npz"
+"""D3QN: the tensors of ``weights.pt`` as numpy arrays, read without torch (``numpy_policy``); not in
+meta.json (it is made beside a finished checkpoint) but tied to it by the SHA-256 of weights.pt it holds."""
 DATA_FILES = {"d3qn": WEIGHTS_FILE, "dqdwa": TABLE_FILE}
 #: Files a checkpoint may carry besides the policy (see module docstring).
 EXTRA_FILES = frozenset(
     {CONFIG_FILE, CURVE_FILE, SUMMARY_FILE, TRAINING_STATE_FILE, TRAINING_TENSORS_FILE, REPLAY_FILE}
 )
-CHECKPOINT_FILES = {META_FILE, WEIGHTS_FILE, TABLE_FILE} | EXTRA_FILES
-
-Agent = D3QNAgent | DQDWAAgent
+CHECKPOINT_FILES = {META_FILE, WEIGHTS_FILE, TABLE_FILE, NUMPY_WEIGHTS_FILE} | EXTRA_FILES
 
 
 def digest(path: Path) -> dict[str, Any]:

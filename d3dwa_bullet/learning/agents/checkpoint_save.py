@@ -17,13 +17,13 @@ import torch
 
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import CheckpointError, WriteError
+from d3dwa_bullet.learning.agents.agent_types import Agent
 from d3dwa_bullet.learning.agents.checkpoint_files import (
     CHECKPOINT_FILES,
     DATA_FILES,
     EXTRA_FILES,
     FORMAT_VERSION,
     META_FILE,
-    Agent,
     digest,
     fsync,
 )

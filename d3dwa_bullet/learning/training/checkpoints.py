@@ -28,6 +28,7 @@ from d3dwa_bullet.learning.agents.checkpoint import (
     save_checkpoint,
 )
 from d3dwa_bullet.learning.agents.d3qn import D3QNAgent
+from d3dwa_bullet.learning.agents.numpy_policy import write_beside_weights
 from d3dwa_bullet.learning.agents.training_state import (
     restore_training_state,
     training_state_files,
@@ -129,7 +130,8 @@ def export_policy(
     run_dir: str | os.PathLike[str], dest: str | os.PathLike[str], which: str = "best"
 ) -> Path:
     """Copy a run's policy (checkpoints/<which>) to ``dest`` with config.json, the learning
-    curve and the run's summary, without any training state (what ``policies/<method>/`` holds)."""
+    curve and the run's summary, without any training state (what ``policies/<method>/`` holds),
+    and a D3QN's weights.npz beside its weights.pt."""
     run = Path(run_dir)
     src = checkpoint_dir(run, which)
     agent, meta = load_checkpoint(src, expected_layout=None)  # copied as it is
@@ -138,4 +140,9 @@ def export_policy(
         extra[CURVE_FILE] = run / CURVE_FILE
     if (run / SUMMARY_FILE).exists():  # the run's counters, evaluations and wall time
         extra[SUMMARY_FILE] = run / SUMMARY_FILE
-    return save_checkpoint(dest, agent, meta["metadata"], method=meta["method"], extra_files=extra)
+    path = save_checkpoint(dest, agent, meta["metadata"], method=meta["method"], extra_files=extra)
+    if isinstance(agent, D3QNAgent):  # evaluation then runs it without torch (numpy_policy)
+        write_beside_weights(
+            path, {k: v.detach().cpu().numpy() for k, v in agent.state_dict().items()}
+        )
+    return path
