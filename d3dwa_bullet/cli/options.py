@@ -22,6 +22,7 @@ import warnings
 from collections.abc import Callable, Sequence
 from typing import NoReturn
 
+from d3dwa_bullet.cli.plan_options import add_global_plan_option, global_plan_arg
 from d3dwa_bullet.controllers import default_policy_path, refuse_policy
 from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, WorldFormatError
@@ -262,6 +263,7 @@ def add_episode_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--control-hz", type=int, default=10, help="control (planning) rate")
     add_recovery_options(p)
+    add_global_plan_option(p)
 
 
 def add_recovery_options(p: argparse.ArgumentParser) -> None:
@@ -319,6 +321,7 @@ def episode_config(args: argparse.Namespace) -> EpisodeConfig:
         planner=PlannerParams(control_period=sim.control_period),
         recovery=recovery_arg(args, sim.control_period),
         scan_filter=scan_filter_arg(args),
+        global_plan=global_plan_arg(args),
     )
 
 

@@ -28,6 +28,7 @@ from d3dwa_bullet.cli.options import (
     workers_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
+from d3dwa_bullet.cli.plan_options import add_global_plan_option
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.results import read_meta
 from d3dwa_bullet.evaluation.reuse import reuse_arg, reused_lines
@@ -80,6 +81,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--physics-hz", type=int, default=240, help="physics rate")
     p.add_argument("--control-hz", type=int, default=10, help="control (planning) rate")
     add_recovery_options(p)
+    add_global_plan_option(p)
     add_reuse_options(p)
     p.set_defaults(func=cmd_sweep, interrupted="finished episodes are kept in results.csv")
 

@@ -218,9 +218,9 @@ def _evaluate(
     settings: dict[str, Any] | None,
     reuse: Reuse | None,
 ) -> list[dict[str, Any]]:
-    recovery = config.recovery_name
-    fields = run_fields(fields, recovery, (j.method for j in jobs))
-    settings = run_settings(settings, recovery)
+    recovery, plan_name = config.recovery_name, config.global_plan_name
+    fields = run_fields(fields, recovery, (j.method for j in jobs), plan_name)
+    settings = run_settings(settings, recovery, plan_name)
     v_max = config.planner.limits.v_max
     check_distinct(jobs)
     check_scan_filters(((j.method, j.policy) for j in jobs), config.scan_filter)
@@ -344,6 +344,7 @@ def world_figures(
     none: a fixed method or a single policy)."""
     # matplotlib takes ~0.3 s to import; every spawned worker imports this module, none draws
     from d3dwa_bullet.evaluation.plotting import trajectory_figure
+    from d3dwa_bullet.planning.global_plan import logged_paths
 
     policy_seeds = policy_seeds or {}
     paths = []
@@ -365,6 +366,7 @@ def world_figures(
                     "t": np.append(log["t"], log["t"][-1] + 0.1) if len(log["t"]) else np.zeros(1),
                     "x": log["true_x"],
                     "y": log["true_y"],
+                    "plan": logged_paths(log),
                     "tau": np.append(log["tau"], log["tau"][-1])
                     if len(log["tau"])
                     else np.zeros(1),

@@ -20,10 +20,12 @@ from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.repeats import Key
 from d3dwa_bullet.evaluation.results import (
     EPISODE_SETTINGS,
+    GLOBAL_PLAN_FIELD,
     check_results_dir,
     read_meta,
     read_results,
     row_key,
+    with_global_plan,
     with_recovery,
     with_sources,
 )
@@ -31,18 +33,25 @@ from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.method_specs import method_family
 
 
-def run_fields(fields: Sequence[str], recovery: str, methods: Iterable[str]) -> tuple[str, ...]:
-    """The CSV columns of a run of methods: fields, with the recovery and source columns it needs."""
+def run_fields(
+    fields: Sequence[str], recovery: str, methods: Iterable[str], global_plan: str = "none"
+) -> tuple[str, ...]:
+    """The CSV columns of a run of methods: fields, with the recovery, global plan and source
+    columns it needs."""
     external = any(method_family(m) == "external" for m in methods)
-    return with_sources(with_recovery(fields, recovery), external)
+    return with_sources(with_global_plan(with_recovery(fields, recovery), global_plan), external)
 
 
-def run_settings(settings: Mapping[str, Any] | None, recovery: str) -> dict[str, Any]:
+def run_settings(
+    settings: Mapping[str, Any] | None, recovery: str, global_plan: str = "none"
+) -> dict[str, Any]:
     """A command's settings as its meta.json records them: with the score form, and the
-    recovery layer when one runs."""
+    recovery layer and global plan when they run."""
     out = dict(settings or {"kind": "eval"}) | {"score_form": SCORE_FORM}
     if recovery != "none":
         out["recovery"] = recovery
+    if global_plan != "none":
+        out[GLOBAL_PLAN_FIELD] = global_plan
     return out
 
 
@@ -53,10 +62,10 @@ def check_resumable(
     """ResultsError unless out takes a run of methods with these columns, episode config and
     settings (as given to ``evaluate``), whatever its jobs: the checks of
     :func:`check_same_run` that need no job, with the directory's format and columns."""
-    recovery = config.recovery_name
-    check_results_dir(out, run_fields(fields, recovery, methods), recovery)
+    recovery, plan = config.recovery_name, config.global_plan_name
+    check_results_dir(out, run_fields(fields, recovery, methods, plan), recovery)
     if _holds_rows(out):
-        _check_settings(out, config, run_settings(settings, recovery))
+        _check_settings(out, config, run_settings(settings, recovery, plan))
 
 
 def _holds_rows(out: Path) -> bool:

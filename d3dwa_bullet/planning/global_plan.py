@@ -24,6 +24,7 @@ planner falls back to the goal direction, as without a plan).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -41,7 +42,9 @@ from d3dwa_bullet.planning.costmap import (
 )
 from d3dwa_bullet.planning.global_plan_params import GlobalPlanParams
 from d3dwa_bullet.planning.recovery import Pose, ScanMemory, to_world
-from d3dwa_bullet.world.grid import Grid
+from d3dwa_bullet.timing import perf
+from d3dwa_bullet.world.grid import Grid, clearance_field
+from d3dwa_bullet.world.model import World
 
 STATUSES = ("ok", "no_path", "goal_blocked", "outside")
 """A plan's status; its 0-based index is the ``plan_status`` code in an episode's log."""
@@ -95,6 +98,10 @@ class GlobalPlanner:
         """(t, status) each time the status changed (the first replan included)."""
         self.replans = 0
         self.blocked_replans = 0
+        self.codes: list[int] = []
+        """The status code (status_code) after each update."""
+        self.seconds = [0.0, 0.0]
+        """[all updates, replans] wall-clock seconds spent, s."""
         self._next = -math.inf
         self._tree: cKDTree | None = None
         self._arc = np.zeros(0)
@@ -102,15 +109,21 @@ class GlobalPlanner:
     def update(self, t: float, pose: Pose, points: np.ndarray) -> tuple[float, float]:
         """The carrot (x, y) for this step: t (s), pose (estimated x, y, yaw), points (M, 2)
         valid returns in base_link."""
+        t0 = perf()
         if self._static is None:
             self.memory.add(pose, points)
         blocked = self._static is None and self._blocked(pose, points)
         if t >= self._next - 1e-9 or blocked:
             if blocked and t < self._next - 1e-9:
                 self.blocked_replans += 1
+            t1 = perf()
             self._replan(t, pose)
+            self.seconds[1] += perf() - t1
             self._next = t + self.params.replan_period
-        return self.carrot(pose)[0]
+        carrot = self.carrot(pose)[0]
+        self.codes.append(status_code(self.status))
+        self.seconds[0] += perf() - t0
+        return carrot
 
     def carrot(self, pose: Pose) -> tuple[tuple[float, float], float]:
         """(carrot (x, y), path length left from the pose to the goal, m): ``lookahead`` along
@@ -201,3 +214,55 @@ class GlobalPlanner:
 def status_code(status: str) -> int:
     """A status's code in an episode's ``plan_status`` log column (its index in STATUSES)."""
     return STATUSES.index(status)
+
+
+def make_global_planner(config: Any, world: World) -> GlobalPlanner | None:
+    """The global plan of an episode config (an EpisodeConfig; None on the paper's stack) on
+    world: ``map`` plans on its clearance field, ``scan`` from start and goal only."""
+    params = config.global_plan
+    if params is None:
+        return None
+    known = clearance_field(world, RESOLUTION, params.margin) if params.kind == "map" else None
+    period = config.sim.control_period
+    return GlobalPlanner(params, config.planner, period, world.start, world.goal, known)
+
+
+def steer(
+    plan: GlobalPlanner | None, t: float, pose: Pose, points: np.ndarray, goal: tuple[float, float]
+) -> tuple[tuple[float, float], tuple[float, float]]:
+    """(what the controller drives toward, what a policy's observation reads as the goal) at
+    one control step: the goal twice without a plan, else the carrot and
+    :meth:`GlobalPlanner.observed_goal`. t: s; pose: estimated; points: (M, 2) base_link."""
+    if plan is None:
+        return goal, goal
+    carrot = plan.update(t, pose, points)
+    return carrot, plan.observed_goal(pose, carrot)
+
+
+def plan_log(plan: GlobalPlanner | None) -> dict[str, np.ndarray]:
+    """The arrays an episode's log holds of its global plan (none without one):
+    ``plan_status`` (one STATUSES code per observation), ``plan_path_t`` (P,) s when each
+    path was found, ``plan_path_xy`` (sum K, 2) m all paths one after the other,
+    ``plan_path_len`` (P,) points in each, ``plan_replans`` and ``plan_blocked_replans``
+    counts, ``plan_seconds`` (2,) s spent in all updates and in replans."""
+    if plan is None:
+        return {}
+    paths = [p for _, p in plan.paths]
+    return {
+        "plan_status": np.asarray(plan.codes, dtype=np.int8),
+        "plan_path_t": np.asarray([t for t, _ in plan.paths], dtype=np.float64),
+        "plan_path_xy": np.concatenate(paths) if paths else np.zeros((0, 2)),
+        "plan_path_len": np.asarray([len(p) for p in paths], dtype=np.int64),
+        "plan_replans": np.asarray(plan.replans),
+        "plan_blocked_replans": np.asarray(plan.blocked_replans),
+        "plan_seconds": np.asarray(plan.seconds),
+    }
+
+
+def logged_paths(log: dict[str, Any]) -> list[np.ndarray]:
+    """Every path an episode's log holds, in the order found, each (K, 2) m (none without a
+    global plan)."""
+    lengths = log.get("plan_path_len")
+    if lengths is None or not len(lengths):
+        return []
+    return np.split(np.asarray(log["plan_path_xy"]), np.cumsum(lengths)[:-1])

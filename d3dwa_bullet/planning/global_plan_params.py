@@ -21,9 +21,9 @@ class GlobalPlanParams:
 
     kind: str = "scan"
     """``scan`` (a costmap from the robot's own scans) or ``map`` (the world's known map)."""
-    lookahead: float = 1.0
-    """Carrot distance along the path, m: at least what the DWA's shortest horizon (2 s) covers
-    at v_max (0.4 m/s), so its end-point progress criterion is not asked to stop short of it."""
+    lookahead: float = 2.0
+    """Carrot distance along the path, m: what the DWA's longest horizon (5 s) covers at v_max
+    (0.4 m/s), so its end-point progress criterion never favours stopping short of the carrot."""
     replan_period: float = 1.0
     """Seconds between replans (Nav2's default tree replans at 1 Hz)."""
     margin: float = 3.0

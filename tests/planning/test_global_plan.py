@@ -81,7 +81,7 @@ def test_map_plan_goes_round_a_known_wall_and_carrot_is_lookahead_along_it():
     )
     known = clearance_field(world, RESOLUTION, margin=3.0)
     gp = GlobalPlanner(
-        GlobalPlanParams(kind="map"), PlannerParams(), 0.1, world.start, world.goal, known
+        GlobalPlanParams(kind="map", lookahead=1.0), PlannerParams(), 0.1, world.start, world.goal, known
     )
     carrot = gp.update(0.0, world.start, np.zeros((0, 2)))
     assert gp.status == "ok" and gp.path is not None
@@ -110,7 +110,7 @@ def test_bad_params_refused(field, value):
 
 def test_scan_plan_is_straight_with_nothing_seen_and_the_carrot_is_near_the_goal_at_the_end():
     gp = scanner()
-    assert gp.update(0.0, (0.0, 0.0, 0.0), np.zeros((0, 2))) == pytest.approx((1.0, 0.0), abs=1e-9)
+    assert gp.update(0.0, (0.0, 0.0, 0.0), np.zeros((0, 2))) == pytest.approx((2.0, 0.0), abs=1e-9)
     assert gp.carrot((3.5, 0.0, 0.0))[0] == (4.0, 0.0)  # less than the lookahead left: the goal
 
 
@@ -172,7 +172,7 @@ def test_path_goal_distance_reads_the_length_left_on_the_carrots_bearing():
     assert gp.observed_goal(pose, carrot) == pytest.approx((4.0, 0.0))
     gp2 = scanner(goal_distance="carrot")
     assert gp2.observed_goal(pose, gp2.update(0.0, pose, np.zeros((0, 2)))) == pytest.approx(
-        (1.0, 0.0)
+        (2.0, 0.0)
     )
 
 
