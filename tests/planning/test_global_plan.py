@@ -81,7 +81,12 @@ def test_map_plan_goes_round_a_known_wall_and_carrot_is_lookahead_along_it():
     )
     known = clearance_field(world, RESOLUTION, margin=3.0)
     gp = GlobalPlanner(
-        GlobalPlanParams(kind="map", lookahead=1.0), PlannerParams(), 0.1, world.start, world.goal, known
+        GlobalPlanParams(kind="map", lookahead=1.0),
+        PlannerParams(),
+        0.1,
+        world.start,
+        world.goal,
+        known,
     )
     carrot = gp.update(0.0, world.start, np.zeros((0, 2)))
     assert gp.status == "ok" and gp.path is not None

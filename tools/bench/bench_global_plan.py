@@ -53,7 +53,9 @@ def by_csgraph(costs: np.ndarray, s: tuple[int, int], g: tuple[int, int]) -> np.
         b = idx[max(0, di) : ny + min(0, di), max(0, dj) : nx + min(0, dj)]
         w = 0.5 * (costs.ravel()[a.ravel()] + costs.ravel()[b.ravel()]) * np.hypot(di, dj)
         ok = np.isfinite(w)
-        rows.append(a.ravel()[ok]), cols.append(b.ravel()[ok]), weights.append(w[ok])
+        rows.append(a.ravel()[ok])
+        cols.append(b.ravel()[ok])
+        weights.append(w[ok])
     graph = coo_matrix(
         (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
         shape=(ny * nx,) * 2,
