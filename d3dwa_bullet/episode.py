@@ -19,6 +19,7 @@ from d3dwa_bullet.episode_config import EpisodeConfig  # re-exported: its old ho
 from d3dwa_bullet.episode_metrics import body_clearance, posture_displacement, trajectory_length
 from d3dwa_bullet.params import PROGRESS_RADIUS, PlannerParams
 from d3dwa_bullet.planning.controller import Controller
+from d3dwa_bullet.planning.global_plan import make_global_planner, plan_log, steer
 from d3dwa_bullet.planning.observation import build_observation, goal_in_body
 from d3dwa_bullet.planning.observation_kinds import make_observer, observation_layout
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult, plan
@@ -73,6 +74,8 @@ class EpisodeResult:
     """The recovery layer the episode ran with (``--recovery``)."""
     backend: str = "pybullet"
     """The simulator backend that ran the episode (``--backend``)."""
+    global_plan: str = "none"
+    """The global plan followed (``--global-plan``; its paths and status are in the log)."""
     source: str = ""
     """Where a method from outside the package came from (``Controller.origin``); empty for
     a built-in method."""
@@ -84,8 +87,9 @@ class EpisodeResult:
 
     def summary(self) -> dict[str, Any]:
         """The JSON/CSV row: world, method, seed, noise, outcome, time_s, tl_m, pd_rad,
-        min_clearance_m, steps, and recovery when a recovery layer ran (a paper-track row keeps
-        the paper track's columns), backend when it is not PyBullet, and method_source and overruns for a method from outside
+        min_clearance_m, steps, recovery and global_plan when they ran (a paper-track row keeps
+        the paper track's columns), backend when it is not PyBullet, and method_source and overruns
+        for a method from outside
         the package."""
         row = {
             "world": self.world,
@@ -103,6 +107,8 @@ class EpisodeResult:
             row["recovery"] = self.recovery
         if self.backend != "pybullet":
             row["backend"] = self.backend
+        if self.global_plan != "none":
+            row["global_plan"] = self.global_plan
         if self.source:
             row |= {"method_source": self.source, "overruns": self.overruns}
         return row
@@ -204,6 +210,9 @@ class Episode:
         """What the recovery layer drove at the last act() (None: the planner drove)."""
         self.velocity_planner = velocity_planner
         """A velocity planner in place of the DWA (``Controller.velocity``; None: the DWA)."""
+        self.plan = make_global_planner(config, world)
+        """The global plan the controller follows (None on the paper's stack)."""
+        self.goal = world.goal  # what the controller drives toward: the goal, or the carrot
 
     def observe(self) -> np.ndarray:
         """Sense and judge termination; returns the observation, (12,) or (17,) by the kind
@@ -234,8 +243,9 @@ class Episode:
         self.estimate = sim.estimate()
         est_pose, est_vel = self.estimate
         t = sim.clock.charge("estimator", t)
+        self.goal, seen_goal = steer(self.plan, sim.time, est_pose, self.points, self.world.goal)
         self.obs = build_observation(
-            est_pose, est_vel, self.world.goal, self.points, cfg.observation, cfg.planner.limits
+            est_pose, est_vel, seen_goal, self.points, cfg.observation, cfg.planner.limits
         )
         if self.progress is not None:
             self.obs = self.progress.extend(self.obs, scan.stamp_ns, est_pose)
@@ -254,7 +264,7 @@ class Episode:
             self.progress.chose(action)
         t0 = perf()
         t = self.sim.time
-        goal = goal_in_body(est_pose, self.world.goal)
+        goal = goal_in_body(est_pose, self.goal)
         rescue = None
         if self.recovery is not None:
             rescue = self.recovery.command(t, est_pose, self.points, (goal[0], goal[1]), est_vel)
@@ -308,7 +318,10 @@ class Episode:
             noise=self.noise_name,
             recovery=self.config.recovery_name,
             backend=self.config.backend,
-            log=log | {"true_x": poses[:, 0], "true_y": poses[:, 1], "true_yaw": poses[:, 2]},
+            global_plan=self.config.global_plan_name,
+            log=log
+            | {"true_x": poses[:, 0], "true_y": poses[:, 1], "true_yaw": poses[:, 2]}
+            | plan_log(self.plan),
             observations=np.asarray(self.observations).reshape(-1, self.obs_dim),
         )
 

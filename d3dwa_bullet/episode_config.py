@@ -13,6 +13,7 @@ from d3dwa_bullet.params import (
     SimParams,
     TerminationParams,
 )
+from d3dwa_bullet.planning.global_plan_params import GlobalPlanParams
 from d3dwa_bullet.planning.scan_filter import check_scan_filter
 from d3dwa_bullet.sim.backend import DEFAULT_BACKEND, check_backend
 from d3dwa_bullet.sim.lidar_params import LidarParams
@@ -32,6 +33,8 @@ class EpisodeConfig:
     scan_filter: str = "none"
     """The scan filter chain between the lidar and everything that reads it (beyond the paper,
     :data:`~d3dwa_bullet.planning.scan_filter.SCAN_FILTERS`; "none" = the paper's stack)."""
+    global_plan: GlobalPlanParams | None = None
+    """The global plan the controller follows (beyond the paper; None = the paper's stack)."""
 
     backend: str = DEFAULT_BACKEND
     """The simulator backend (:data:`~d3dwa_bullet.sim.backend.BACKENDS`): PyBullet, the reference,
@@ -45,3 +48,8 @@ class EpisodeConfig:
     def recovery_name(self) -> str:
         """The ``--recovery`` name of this config: "none" or the recipe's kind."""
         return "none" if self.recovery is None else self.recovery.kind
+
+    @property
+    def global_plan_name(self) -> str:
+        """The ``--global-plan`` name of this config: "none", "scan" or "map"."""
+        return "none" if self.global_plan is None else self.global_plan.kind

@@ -22,6 +22,7 @@ import warnings
 from collections.abc import Callable, Sequence
 from typing import NoReturn
 
+from d3dwa_bullet.cli.plan_options import add_global_plan_option, global_plan_arg
 from d3dwa_bullet.controllers import default_policy_path, refuse_policy
 from d3dwa_bullet.episode_config import EpisodeConfig
 from d3dwa_bullet.errors import ConfigError, WorldFormatError
@@ -224,6 +225,7 @@ def add_episode_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--control-hz", type=int, default=10, help="control (planning) rate")
     add_recovery_options(p)
     add_sim_backend_option(p)
+    add_global_plan_option(p)
 
 
 def add_sim_backend_option(p: argparse.ArgumentParser) -> None:
@@ -295,6 +297,7 @@ def episode_config(args: argparse.Namespace) -> EpisodeConfig:
         backend=check_backend(
             getattr(args, "backend", DEFAULT_BACKEND), getattr(args, "gui", False)
         ),
+        global_plan=global_plan_arg(args),
     )
 
 

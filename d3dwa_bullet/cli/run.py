@@ -93,6 +93,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.plot:
         # start-up cost: matplotlib (~0.3 s) only with --plot
         from d3dwa_bullet.evaluation.plotting import trajectory_figure
+        from d3dwa_bullet.planning.global_plan import logged_paths
 
         log = result.log
         t = list(log["t"]) + [result.time_s]
@@ -100,7 +101,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         run = {
             "label": method_label(args.method), "method": args.method,
             "outcome": result.outcome, "t": t, "x": log["true_x"], "y": log["true_y"], "tau": tau,
-            "recovery": log["recovery"],
+            "recovery": log["recovery"], "plan": logged_paths(log),
         }  # fmt: skip
         try:
             trajectory_figure(world, [run], args.plot, colour_by=args.colour_by)

@@ -30,6 +30,7 @@ from d3dwa_bullet.cli.options import (
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
 from d3dwa_bullet.cli.suites import add_suite_options, suite_world_names
+from d3dwa_bullet.cli.plan_options import add_global_plan_option
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.plans.plan_file import Plan, check_fits, load_plan
 from d3dwa_bullet.evaluation.results import read_meta
@@ -88,6 +89,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--control-hz", type=int, default=10, help="control (planning) rate")
     add_recovery_options(p)
     add_sim_backend_option(p)
+    add_global_plan_option(p)
     add_reuse_options(p)
     p.set_defaults(func=cmd_sweep, interrupted="finished episodes are kept in results.csv")
 

@@ -29,6 +29,7 @@ from d3dwa_bullet.cli.options import (
     time_limit_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
+from d3dwa_bullet.cli.plan_options import add_global_plan_option, global_plan_arg
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import BagFormatError, ConfigError, D3DWAError
 from d3dwa_bullet.params import SimParams
@@ -212,6 +213,7 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     )  # fmt: skip
     parser.add_argument("--overwrite", action="store_true", help="replace an existing bag")
     add_recovery_options(parser)
+    add_global_plan_option(parser)
 
 
 def run_record(
@@ -234,12 +236,14 @@ def run_record(
         extra["time_limit"] = args.time_limit
     seed_arg(args.seed)
     recovery = recovery_arg(args, SimParams().control_period)
-    scan_filter = scan_filter_arg(args)
-    if recovery is not None or scan_filter != "none":
+    scan_filter, plan = scan_filter_arg(args), global_plan_arg(args)
+    if recovery is not None or scan_filter != "none" or plan is not None:
         # start-up cost: d3dwa_bullet.episode imports pybullet, needed only to record
         from d3dwa_bullet.episode import EpisodeConfig
 
-        extra["config"] = EpisodeConfig(recovery=recovery, scan_filter=scan_filter)
+        extra["config"] = EpisodeConfig(
+            recovery=recovery, scan_filter=scan_filter, global_plan=plan
+        )
     load_cli_world(args.world, getattr(args, "allow_empty", False), warn=False)
     target = Path(args.out)
     if target.exists() and not args.overwrite:

@@ -219,9 +219,9 @@ def _evaluate(
     settings: dict[str, Any] | None,
     reuse: Reuse | None,
 ) -> list[dict[str, Any]]:
-    recovery, backend = config.recovery_name, config.backend
-    fields = run_fields(fields, recovery, (j.method for j in jobs), backend)
-    settings = run_settings(settings, recovery, backend)
+    recovery, backend, plan = config.recovery_name, config.backend, config.global_plan_name
+    fields = run_fields(fields, recovery, (j.method for j in jobs), backend=backend, global_plan=plan)
+    settings = run_settings(settings, recovery, backend=backend, global_plan=plan)
     v_max = config.planner.limits.v_max
     check_distinct(jobs)
     check_backend_worlds(backend, [j.world for j in jobs])
@@ -346,6 +346,7 @@ def world_figures(
     none: a fixed method or a single policy)."""
     # matplotlib takes ~0.3 s to import; every spawned worker imports this module, none draws
     from d3dwa_bullet.evaluation.plotting import trajectory_figure
+    from d3dwa_bullet.planning.global_plan import logged_paths
 
     policy_seeds = policy_seeds or {}
     paths = []
@@ -367,6 +368,7 @@ def world_figures(
                     "t": np.append(log["t"], log["t"][-1] + 0.1) if len(log["t"]) else np.zeros(1),
                     "x": log["true_x"],
                     "y": log["true_y"],
+                    "plan": logged_paths(log),
                     "tau": np.append(log["tau"], log["tau"][-1])
                     if len(log["tau"])
                     else np.zeros(1),

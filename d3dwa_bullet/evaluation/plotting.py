@@ -53,6 +53,21 @@ def draw_path(
     return lc
 
 
+GLOBAL_PATH_STYLE = {"color": "#1565c0", "lw": 0.9, "ls": (0, (3, 2)), "zorder": 4}
+"""The global paths of a run (``--global-plan``, docs/design/global-plan.md): dashed blue, the
+later the darker."""
+
+
+def draw_global_paths(ax: plt.Axes, paths: Sequence[np.ndarray] | None) -> bool:
+    """Draw a run's global paths (each (K, 2) m, in the order found; None or none: nothing),
+    the first faint, the last opaque; returns whether it drew."""
+    paths = [p for p in paths or () if len(p) > 1]
+    for k, path in enumerate(paths):
+        alpha = 0.15 + 0.85 * (k + 1) / len(paths)
+        ax.plot(path[:, 0], path[:, 1], alpha=alpha, **GLOBAL_PATH_STYLE)  # type: ignore[arg-type]
+    return bool(paths)
+
+
 RECOVERY_COLOURS = {"spin": "#00c853", "back_up": "#00b8d4"}
 """Colours of the steps each recovery behaviour drove: green and cyan, apart from the
 plasma and viridis maps the path is coloured with."""
@@ -141,7 +156,8 @@ def trajectory_figure(
     """One panel per run, in a grid of at most MAX_COLUMNS columns: each run is a dict with
     keys label (short: the panel's title), outcome, t, x, y, tau (arrays, s and m), and
     optionally recovery (the per-step log's codes: the steps a recovery behaviour drove are
-    drawn over the path in its own colour, RECOVERY_COLOURS). colour_by: "time" or "tau".
+    drawn over the path in its own colour, RECOVERY_COLOURS) and plan (the run's global paths,
+    each (K, 2) m, in the order found: dashed, the later the darker). colour_by: "time" or "tau".
 
     Each panel's outcome is its title's right-hand word in the outcome's colour and a mark
     of that colour where the path ends (OUTCOME_STYLE); one legend and one colour bar serve
@@ -167,6 +183,7 @@ def trajectory_figure(
         cmap, label = "plasma", "elapsed time [s]"
     lc = None
     drawn: set[str] = set()
+    planned = False
     outcomes: list[str] = []
     panels = axes.ravel()
     for ax, run in zip(panels, runs, strict=False):
@@ -177,6 +194,7 @@ def trajectory_figure(
                 ax, run["x"], run["y"], run["tau"] if colour_by == "tau" else run["t"], norm, cmap
             )
             drawn |= draw_recoveries(ax, run["x"], run["y"], run.get("recovery"))
+        planned |= draw_global_paths(ax, run.get("plan"))
         if len(run["x"]):
             ax.plot(run["x"][-1], run["y"][-1], ls="", zorder=6, **_end_mark(run["outcome"]))
         outcomes.append(run["outcome"])
@@ -193,6 +211,7 @@ def trajectory_figure(
             Line2D([], [], marker=(3, 0, -90), color="k", ls="", label="start"),
             Line2D([], [], marker="*", color="red", ms=10, ls="", label="goal"),
             Patch(color="0.55", label="obstacle"),
+            *([Line2D([], [], **GLOBAL_PATH_STYLE, label="global paths")] if planned else []),
             *(Line2D([], [], ls="", label=f"end: {_outcome_style(o)[0]}", **_end_mark(o, 0.7))
               for o in sorted(set(outcomes), key=_outcome_order)),
             *(Line2D([], [], color=RECOVERY_COLOURS[b], lw=4, label=f"recovery: {b}")

@@ -88,7 +88,13 @@ DERIVED_PAGES = ("table.md", "sweep.md", "report.md")
 """Pages computed from results.csv; removed while a run is incomplete."""
 
 KEY_FIELDS = ("world", "method", "policy_seed", "seed", "noise")
-EPISODE_SETTINGS = {"time_limit": "--time-limit", "policy": "--policy", "recovery": "--recovery"}
+GLOBAL_PLAN_FIELD = "global_plan"
+"""The column a run with a global plan adds (its ``--global-plan`` name in every row), and its
+meta.json setting; absent from a run without one (docs/design/global-plan.md)."""
+EPISODE_SETTINGS = {
+    "time_limit": "--time-limit", "policy": "--policy", "recovery": "--recovery",
+    GLOBAL_PLAN_FIELD: "--global-plan",
+}  # fmt: skip
 """Settings (meta.json "settings") that change an episode but not its key, with the option
 that sets them: one directory holds one value of each."""
 
@@ -96,6 +102,11 @@ that sets them: one directory holds one value of each."""
 def with_recovery(fields: Sequence[str], recovery: str) -> tuple[str, ...]:
     """The CSV columns of a run: fields, plus RECOVERY_FIELD when a recovery layer runs."""
     return tuple(fields) if recovery == "none" else (*fields, RECOVERY_FIELD)
+
+
+def with_global_plan(fields: Sequence[str], global_plan: str) -> tuple[str, ...]:
+    """The CSV columns of a run: fields, plus GLOBAL_PLAN_FIELD when a global plan runs."""
+    return tuple(fields) if global_plan == "none" else (*fields, GLOBAL_PLAN_FIELD)
 
 
 def unscored(fields: Sequence[str]) -> list[str]:

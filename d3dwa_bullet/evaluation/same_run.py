@@ -20,11 +20,13 @@ from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.repeats import Key
 from d3dwa_bullet.evaluation.results import (
     EPISODE_SETTINGS,
+    GLOBAL_PLAN_FIELD,
     check_results_dir,
     read_meta,
     read_results,
     row_key,
     with_backend,
+    with_global_plan,
     with_recovery,
     with_sources,
 )
@@ -33,24 +35,34 @@ from d3dwa_bullet.method_specs import method_family
 
 
 def run_fields(
-    fields: Sequence[str], recovery: str, methods: Iterable[str], backend: str = "pybullet"
+    fields: Sequence[str],
+    recovery: str,
+    methods: Iterable[str],
+    backend: str = "pybullet",
+    global_plan: str = "none",
 ) -> tuple[str, ...]:
-    """The CSV columns of a run of methods: fields, with the recovery, backend and source
-    columns it needs."""
+    """The CSV columns of a run of methods: fields, with the recovery, backend, global plan and
+    source columns it needs."""
     external = any(method_family(m) == "external" for m in methods)
-    return with_sources(with_backend(with_recovery(fields, recovery), backend), external)
+    fields = with_global_plan(with_backend(with_recovery(fields, recovery), backend), global_plan)
+    return with_sources(fields, external)
 
 
 def run_settings(
-    settings: Mapping[str, Any] | None, recovery: str, backend: str = "pybullet"
+    settings: Mapping[str, Any] | None,
+    recovery: str,
+    backend: str = "pybullet",
+    global_plan: str = "none",
 ) -> dict[str, Any]:
     """A command's settings as its meta.json records them: with the score form, the recovery
-    layer when one runs, and the simulator backend when it is not PyBullet."""
+    layer and the global plan when they run, and the simulator backend when it is not PyBullet."""
     out = dict(settings or {"kind": "eval"}) | {"score_form": SCORE_FORM}
     if recovery != "none":
         out["recovery"] = recovery
     if backend != "pybullet":
         out["backend"] = backend
+    if global_plan != "none":
+        out[GLOBAL_PLAN_FIELD] = global_plan
     return out
 
 
@@ -61,10 +73,11 @@ def check_resumable(
     """ResultsError unless out takes a run of methods with these columns, episode config and
     settings (as given to ``evaluate``), whatever its jobs: the checks of
     :func:`check_same_run` that need no job, with the directory's format and columns."""
-    recovery, backend = config.recovery_name, config.backend
-    check_results_dir(out, run_fields(fields, recovery, methods, backend), recovery, backend)
+    recovery, backend, plan = config.recovery_name, config.backend, config.global_plan_name
+    fields = run_fields(fields, recovery, methods, backend=backend, global_plan=plan)
+    check_results_dir(out, fields, recovery, backend)
     if _holds_rows(out):
-        _check_settings(out, config, run_settings(settings, recovery, backend))
+        _check_settings(out, config, run_settings(settings, recovery, backend=backend, global_plan=plan))
 
 
 def _holds_rows(out: Path) -> bool:

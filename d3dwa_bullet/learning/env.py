@@ -51,6 +51,9 @@ and sums their rewards (``learning.decision_period``).
 ``step`` refuses (ConfigError) an action that is not an int or numpy integer in the space: a
 float or a bool is not truncated; ``reset`` refuses option keys outside ``tasks.RESET_OPTIONS``.
 
+``global_plan="scan"`` (or ``"map"``, or a ``GlobalPlanParams``) makes the agent follow a global
+plan's carrot, as ``--global-plan`` does (docs/design/global-plan.md).
+
 ``recovery="nav2"`` (or a ``RecoveryParams``) puts the recovery layer around the agent, as
 ``--recovery`` does for ``d3dwa run`` (docs/design/recovery.md#recovery): while it recovers it drives
 and the action of that step is not used; ``info["recovery"]`` names the behaviour (else None).
@@ -82,6 +85,7 @@ from d3dwa_bullet.learning.reward import reward
 from d3dwa_bullet.learning.tasks import TRAIN_WORLDS, TaskSampler, check_reset_options
 from d3dwa_bullet.params import RecoveryParams, RewardParams, recovery_params
 from d3dwa_bullet.planning.actions import ACTIONS_FULL, ACTIONS_WEIGHTS_ONLY, ActionSet
+from d3dwa_bullet.planning.global_plan_params import GlobalPlanParams, global_plan_params
 from d3dwa_bullet.planning.observation_kinds import (
     check_observation_kind,
     observation_layout,
@@ -143,6 +147,7 @@ class D3DWAEnv(Rebuild, gym.Env):
         render_mode: str | None = None,
         recovery: str | RecoveryParams | None = None,
         observation: str = "paper",
+        global_plan: str | GlobalPlanParams | None = None,
         decision_steps: int = 1,
     ) -> None:
         super().__init__()
@@ -151,6 +156,13 @@ class D3DWAEnv(Rebuild, gym.Env):
         if recovery is not None:
             params = recovery if isinstance(recovery, RecoveryParams) else recovery_params(recovery)
             episode_config = replace(episode_config, recovery=params)
+        if global_plan is not None:
+            plan = (
+                global_plan
+                if isinstance(global_plan, GlobalPlanParams)
+                else global_plan_params(global_plan)
+            )
+            episode_config = replace(episode_config, global_plan=plan)
         check_render_mode(render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
         if episode_config.sim.control_hz != self.metadata["render_fps"]:
