@@ -29,8 +29,8 @@ from d3dwa_bullet.cli.options import (
     workers_arg,
 )
 from d3dwa_bullet.cli.output import check_out_dir, json_text
-from d3dwa_bullet.cli.suites import add_suite_options, suite_world_names
 from d3dwa_bullet.cli.plan_options import add_global_plan_option
+from d3dwa_bullet.cli.suites import add_suite_options, suite_world_names
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.plans.plan_file import Plan, check_fits, load_plan
 from d3dwa_bullet.evaluation.results import read_meta

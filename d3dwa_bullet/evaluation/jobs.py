@@ -220,7 +220,9 @@ def _evaluate(
     reuse: Reuse | None,
 ) -> list[dict[str, Any]]:
     recovery, backend, plan = config.recovery_name, config.backend, config.global_plan_name
-    fields = run_fields(fields, recovery, (j.method for j in jobs), backend=backend, global_plan=plan)
+    fields = run_fields(
+        fields, recovery, (j.method for j in jobs), backend=backend, global_plan=plan
+    )
     settings = run_settings(settings, recovery, backend=backend, global_plan=plan)
     v_max = config.planner.limits.v_max
     check_distinct(jobs)

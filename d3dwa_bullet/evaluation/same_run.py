@@ -77,7 +77,9 @@ def check_resumable(
     fields = run_fields(fields, recovery, methods, backend=backend, global_plan=plan)
     check_results_dir(out, fields, recovery, backend)
     if _holds_rows(out):
-        _check_settings(out, config, run_settings(settings, recovery, backend=backend, global_plan=plan))
+        _check_settings(
+            out, config, run_settings(settings, recovery, backend=backend, global_plan=plan)
+        )
 
 
 def _holds_rows(out: Path) -> bool:
