@@ -26,13 +26,13 @@ never shadowed, and installed entry points are read only for a name that is not 
 from __future__ import annotations
 
 from d3dwa_bullet.errors import ConfigError, UnknownNameError
-from d3dwa_bullet.external.protocol import (
+from d3dwa_bullet.limits import MAX_DECISION_STEPS
+from d3dwa_bullet.method_names import (
     ENTRY_POINT_GROUP,
     entry_points_named,
     is_import_path,
     is_model_file,
 )
-from d3dwa_bullet.limits import MAX_DECISION_STEPS
 from d3dwa_bullet.planning.actions import (
     ACTIONS_FULL,
     ACTIONS_WEIGHTS_ONLY,

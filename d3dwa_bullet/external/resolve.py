@@ -23,14 +23,15 @@ from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import D3DWAError, ExternalMethodError
-from d3dwa_bullet.external.protocol import (
+from d3dwa_bullet.external.protocol import INTERFACE_VERSION
+from d3dwa_bullet.limits import MAX_DECISION_STEPS, is_decision_period
+from d3dwa_bullet.method_names import (
     ENTRY_POINT_GROUP,
-    INTERFACE_VERSION,
+    entry_point_clashes,
     entry_points_named,
     is_import_path,
     is_model_file,
 )
-from d3dwa_bullet.limits import MAX_DECISION_STEPS, is_decision_period
 from d3dwa_bullet.method_specs import HOLD_MARK, REFERENCE, is_builtin, method_family
 from d3dwa_bullet.params import OBSERVATION_KINDS
 from d3dwa_bullet.planning.actions import ActionSet
@@ -92,6 +93,13 @@ def resolve(name: str) -> ExternalMethod:
             raise ExternalMethodError(
                 f"method {name!r}: no such entry point in {ENTRY_POINT_GROUP} (and not "
                 "package.module:Name); see `d3dwa methods`"
+            )
+        clash = entry_point_clashes().get(name)
+        if clash:
+            raise ExternalMethodError(
+                f"method {name!r}: {len(clash)} installed packages register this name in "
+                f"{ENTRY_POINT_GROUP} ({'; '.join(clash)}): uninstall all but one, or name the "
+                "class as package.module:Name"
             )
         ep = points[name]
         try:

@@ -17,8 +17,7 @@ HERE = "tests.support.external_methods"
 
 def _entry_points(monkeypatch, **points: str) -> None:
     found = {n: EntryPoint(n, v, protocol.ENTRY_POINT_GROUP) for n, v in points.items()}
-    for where in ("protocol", "resolve"):
-        monkeypatch.setattr(f"d3dwa_bullet.external.{where}.entry_points_named", lambda: found)
+    monkeypatch.setattr("d3dwa_bullet.external.resolve.entry_points_named", lambda: found)
     monkeypatch.setattr("d3dwa_bullet.method_specs.entry_points_named", lambda: found)
     monkeypatch.setattr("d3dwa_bullet.method_specs._EXTERNAL_SEEN", set())
 
