@@ -48,6 +48,10 @@ def test_run_names_the_source(capsys, one_second_world):
         ("nowhere_pkg.mod:Thing", "module 'nowhere_pkg.mod' cannot be imported"),
         (f"{HERE}:RaisesAtConstruction", "raised at construction"),
         (f"{HERE}:TooFast", "beyond the robot's limits"),
+        ("tests.support.exits_on_import:Planner", "cannot be imported: called sys.exit(0)"),
+        (f"{HERE}:ExitsAtConstruction", "raised at construction: called sys.exit(0)"),
+        (f"{HERE}:ExitsSevenAtConstruction", "raised at construction: called sys.exit(7)"),
+        (f"{HERE}:ExitsOnFifthCommand", "command() raised at step 4: called sys.exit(0)"),
     ],
 )
 def test_run_refuses_a_method_that_cannot_be_trusted(capsys, one_second_world, method, said):

@@ -125,3 +125,32 @@ def test_two_packages_registering_one_name_are_refused_never_the_last_taken(monk
     assert f"{HERE}:Straight" in said and f"{HERE}:Zero" in said and "\n" not in said
     listed = [r for r in installed_methods() if r["name"] == "twice"]
     assert [r["kind"] for r in listed] == ["refused"]
+
+
+@pytest.mark.parametrize(
+    ("name", "said"),
+    [
+        ("tests.support.exits_on_import:Planner", r"cannot be imported: called sys.exit\(0\)"),
+        (f"{HERE}:ExitsAtConstruction", r"raised at construction: called sys.exit\(0\)"),
+        (f"{HERE}:ExitsSevenAtConstruction", r"raised at construction: called sys.exit\(7\)"),
+    ],
+)
+def test_a_method_that_calls_sys_exit_is_refused_not_obeyed(name, said):
+    with pytest.raises(ExternalMethodError, match=said) as err:
+        resolve(name).build()
+    assert name in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_module_off_the_import_path_gets_the_hint_in_one_line():
+    with pytest.raises(ExternalMethodError) as err:
+        resolve("nowhere_pkg.mod:Thing")
+    said = str(err.value)
+    assert "ModuleNotFoundError" in said and "\n" not in said
+    assert "'nowhere_pkg' on its import path" in said and "PYTHONPATH" in said
+    assert "pip install" in said
+
+
+def test_a_module_found_whose_own_import_fails_gets_no_path_hint():
+    with pytest.raises(ExternalMethodError) as err:
+        resolve("tests.support.exits_on_import:Planner")
+    assert "PYTHONPATH" not in str(err.value)
