@@ -24,7 +24,7 @@ from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation import training_worlds as tw
 from d3dwa_bullet.evaluation.barn_tables import barn_section
-from d3dwa_bullet.evaluation.floors import FLOORS_NOTE, floor_records, floor_table
+from d3dwa_bullet.evaluation.floors import chance_sections
 from d3dwa_bullet.evaluation.jobs import figure_name, world_figures
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.page_width import fit_prose, world_span
@@ -129,9 +129,9 @@ def eval_markdown(
 
 
 def floors_section(rows: Sequence[dict[str, Any]], methods: Sequence[str]) -> str:
-    """ "Against chance": which floor each learned method cleared (empty without one)."""
-    table = floor_table(floor_records(rows, methods))
-    return f"\n## Against chance\n\n{FLOORS_NOTE}\n\n{table}" if table else ""
+    """ "Against chance": which floor each learned method cleared, and apart from it a velocity
+    planner against its reference (empty without either)."""
+    return chance_sections(rows, methods)
 
 
 def seeds_markdown(

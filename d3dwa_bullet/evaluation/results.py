@@ -154,7 +154,24 @@ def read_results(out: Path) -> list[dict[str, Any]]:
                 ) from err
         row[RECOVERY_FIELD] = row.get(RECOVERY_FIELD) or "none"
     check_one_track(path, rows, RECOVERY_FIELD)
+    check_rows_once(path, rows)
     return rows
+
+
+def check_rows_once(path: Path, rows: Sequence[Mapping[str, Any]]) -> None:
+    """ResultsError if two rows are one episode (the same world, method, training seed, seed
+    and noise): a row written twice, by hand or by a copy, would count twice in every table."""
+    first: dict[Key, int] = {}
+    for line, row in enumerate(rows, start=2):
+        seen = first.setdefault(row_key(row), line)
+        if seen != line:
+            world, method, policy_seed, seed, noise = row_key(row)
+            trained = "" if policy_seed is None else f", training seed {policy_seed}"
+            raise ResultsError(
+                f"{path}: line {line} repeats the episode of line {seen} (world {world!r}, "
+                f"method {method!r}{trained}, seed {seed}, noise {noise!r}); an episode is one "
+                "row: remove the copy"
+            )
 
 
 def read_meta(out: Path) -> dict[str, Any]:
