@@ -19,7 +19,7 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from d3dwa_bullet.errors import UnknownNameError, WorldFormatError
+from d3dwa_bullet.errors import UnknownNameError, WorldFormatError, did_you_mean
 from d3dwa_bullet.resources import worlds_dir
 from d3dwa_bullet.world.barn import barn_world_from_name
 from d3dwa_bullet.world.generator import generated_world_from_name
@@ -132,6 +132,6 @@ def load_world(name_or_path: str | Path) -> World:
     if generated is not None:
         return generated
     raise UnknownNameError(
-        f"unknown world {text!r}: choose one of {', '.join(paths)}, a BARN world such as "
+        f"unknown world {text!r}: {did_you_mean(text, paths)}choose one of {', '.join(paths)}, a BARN world such as "
         "BARN-17, a generated layout such as R2-style-s17, or a path to a world file"
     )
