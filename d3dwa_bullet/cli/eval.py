@@ -157,7 +157,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
         )  # fmt: skip
         atomic_write_text(out / "table.md", table)
         atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names, training))
-        figures = world_figures(out, worlds, methods, seeds[0], args.noise, figure_seeds(rows))
+        figures = world_figures(
+            out, worlds, methods, seeds[0], args.noise, figure_seeds(rows), progress=not args.json
+        )
     if args.json:
         print(json_text(rows))
     else:

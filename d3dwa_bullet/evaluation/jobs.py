@@ -284,16 +284,21 @@ def world_figures(
     seed: int,
     noise: str,
     policy_seeds: Mapping[str, int | None] | None = None,
+    progress: bool = False,
 ) -> list[Path]:
     """One figure per world: every method's trajectory, coloured by time (and by tau for
     learned). policy_seeds: the training seed whose episode is drawn, per method (default
-    none: a fixed method or a single policy)."""
+    none: a fixed method or a single policy). Each figure says which episode a panel is (the
+    evaluation seed in its title, a learned method's training seed in its panel's), since the
+    tables average over every seed. progress: a bar on stderr, one step per world."""
     # matplotlib takes ~0.3 s to import; every spawned worker imports this module, none draws
     from d3dwa_bullet.evaluation.plotting import trajectory_figure
 
     policy_seeds = policy_seeds or {}
     paths = []
-    for world in worlds:
+    worlds = list(worlds)
+    shown = f"one episode each: evaluation seed {seed}, noise {noise}"
+    for world in tqdm(worlds, desc="figures", unit="world", disable=not progress, leave=False):
         runs = []
         for method in methods:
             job = Job(world, method, seed, noise, policy_seed=policy_seeds.get(method))
@@ -305,7 +310,7 @@ def world_figures(
                 {
                     # the name the results and P(A > B) tables use: twelve labels fit a grid
                     "label": method
-                    + ("" if job.policy_seed is None else f" · seed {job.policy_seed}"),
+                    + ("" if job.policy_seed is None else f" · training seed {job.policy_seed}"),
                     "method": method,
                     "outcome": str(log["outcome"]),
                     "t": np.append(log["t"], log["t"][-1] + 0.1) if len(log["t"]) else np.zeros(1),
@@ -319,7 +324,10 @@ def world_figures(
         if not runs:
             continue
         fig_dir = out / "figures"
-        paths.append(trajectory_figure(world, runs, fig_dir / figure_name(world.name, "time")))
+        title = f"{world.name}: {world.description} ({shown})"
+        paths.append(
+            trajectory_figure(world, runs, fig_dir / figure_name(world.name, "time"), title=title)
+        )
         learned = [r for r in runs if r["method"].startswith("d3dwa")]
         if learned:
             paths.append(
@@ -328,7 +336,8 @@ def world_figures(
                     learned,
                     fig_dir / figure_name(world.name, "tau"),
                     colour_by="tau",
-                    title=f"{world.name}: D3DWA trajectories coloured by the selected horizon",
+                    title=f"{world.name}: D3DWA trajectories coloured by the selected horizon "
+                    f"({shown})",
                 )  # fmt: skip
             )
     return paths
