@@ -310,7 +310,7 @@ def world_figures(
                 {
                     # the name the results and P(A > B) tables use: twelve labels fit a grid
                     "label": method
-                    + ("" if job.policy_seed is None else f" · training seed {job.policy_seed}"),
+                    + ("" if job.policy_seed is None else f" · seed {job.policy_seed}"),
                     "method": method,
                     "outcome": str(log["outcome"]),
                     "t": np.append(log["t"], log["t"][-1] + 0.1) if len(log["t"]) else np.zeros(1),
@@ -324,7 +324,12 @@ def world_figures(
         if not runs:
             continue
         fig_dir = out / "figures"
-        title = f"{world.name}: {world.description} ({shown})"
+        trained = (
+            "; · seed k: training seed k"
+            if any(p is not None for p in policy_seeds.values())
+            else ""
+        )
+        title = f"{world.name}: {world.description} ({shown}{trained})"
         paths.append(
             trajectory_figure(world, runs, fig_dir / figure_name(world.name, "time"), title=title)
         )
@@ -337,7 +342,7 @@ def world_figures(
                     fig_dir / figure_name(world.name, "tau"),
                     colour_by="tau",
                     title=f"{world.name}: D3DWA trajectories coloured by the selected horizon "
-                    f"({shown})",
+                    f"({shown}{trained})",
                 )  # fmt: skip
             )
     return paths

@@ -59,7 +59,7 @@ def _labels(n: int) -> list[str]:
     """n panel labels as the main job names them: the method, and a learned one's seed;
     past the shipped methods, held references of growing periods."""
     names = list(METHODS) + [f"random-weights@{k}" for k in range(11, 11 + max(0, n - 12))]
-    return [m + (" · training seed 0" if needs_policy(m) else "") for m in names[:n]]
+    return [m + (" · seed 0" if needs_policy(m) else "") for m in names[:n]]
 
 
 def _run(label: str, k: int) -> dict:

@@ -3,6 +3,8 @@ method's training seed), and the horizon's colour bar is in bands: tau takes fou
 
 from __future__ import annotations
 
+import shutil
+
 import numpy as np
 
 from d3dwa_bullet.cli.app import main
@@ -33,4 +35,12 @@ def test_each_figure_names_the_episode_it_shows(tmp_path, one_second_world, monk
     world = load_world(one_second_world)
     jobs.world_figures(out, [world], ["dwa1"], 3, "paper", {"dwa1": None})
     ((runs, kw),) = drawn
-    assert "evaluation seed 3, noise paper" in kw["title"] and runs[0]["label"] == "dwa1"
+    assert "evaluation seed 3, noise paper)" in kw["title"] and runs[0]["label"] == "dwa1"
+    drawn.clear()  # the same log as a learned method's, training seed 2: its panel says so
+    learned = jobs.Job(world, "d3dwa", 3, "paper", policy_seed=2)
+    shutil.copy(
+        out / "logs" / jobs.Job(world, "dwa1", 3, "paper").log_name, out / "logs" / learned.log_name
+    )
+    jobs.world_figures(out, [world], ["d3dwa"], 3, "paper", {"d3dwa": 2})
+    assert [runs[0]["label"] for runs, _ in drawn] == ["d3dwa · seed 2"] * 2  # time and tau
+    assert all("noise paper; · seed k: training seed k)" in kw["title"] for _, kw in drawn)
