@@ -250,11 +250,31 @@ def check_results_dir(
             "another --out directory"
         )
     if fields is not None and header is not None and header not in (list(fields), unscored(fields)):
+        _check_sources(out, header, fields)
         kind = read_meta(out).get("settings", {}).get("kind", "another command")
         raise ResultsError(
             f"{out / 'results.csv'}: columns {header} were written by {kind!r}, this command "
             f"writes {list(fields)}; use another --out directory"
         )
+
+
+def _check_sources(out: Path, header: Sequence[str], fields: Sequence[str]) -> None:
+    """When results.csv and this run differ only in SOURCE_FIELD, the method list is the cause
+    (a method from outside the package on one side only): say so, naming the methods there."""
+    ours = [f for f in fields if f != SOURCE_FIELD]
+    if [f for f in header if f != SOURCE_FIELD] not in (ours, unscored(ours)):
+        return
+    methods = ", ".join(read_meta(out).get("settings", {}).get("methods", [])) or "see meta.json"
+    if SOURCE_FIELD in header:
+        raise ResultsError(
+            f"{out / 'results.csv'}: holds a method from outside the package (column "
+            f"{SOURCE_FIELD}) and this run's --methods has none: to extend it, list the methods "
+            f"already there ({methods}); else use another --out directory"
+        )
+    raise ResultsError(
+        f"{out / 'results.csv'}: holds no method from outside the package (no column "
+        f"{SOURCE_FIELD}) and this run's --methods adds one: run it into another --out directory"
+    )
 
 
 def drop_partial_row(path: Path) -> bool:

@@ -105,3 +105,19 @@ def test_methods_says_which_learned_method_ships_a_policy(capsys, monkeypatch, t
     assert "policy" not in rows["dwa3"]  # a fixed method needs none
     code, out, _ = run(capsys, "methods")
     assert "D3DWA (BARN-trained)  [built-in; no shipped policy: train one" in out
+
+
+def test_extending_a_directory_names_the_method_list_as_the_cause(
+    capsys, one_second_world, tmp_path
+):
+    out = tmp_path / "res"
+    base = ("eval", "--worlds", one_second_world, "--workers", 1, "--out", out)
+    code, _, err = run(capsys, *base, "--methods", f"dwa3,{HERE}:Straight")
+    assert code == 0, err
+    line = refused(capsys, *base, "--methods", "dwa3,dwa1")
+    assert "holds a method from outside the package" in line and "were written by" not in line
+    assert f"list the methods already there (dwa3, {HERE}:Straight)" in line
+    plain = tmp_path / "plain"
+    assert run(capsys, *base[:-1], plain, "--methods", "dwa3")[0] == 0
+    line = refused(capsys, *base[:-1], plain, "--methods", f"dwa3,{HERE}:Straight")
+    assert "holds no method from outside the package" in line and "another --out" in line
