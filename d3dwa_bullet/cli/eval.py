@@ -104,6 +104,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     noise_arg(args.noise)
     loaded = [load_cli_world(w, args.allow_empty) for w in world_args]
     # start-up cost: the episodes import the simulator (pybullet) and the planner (numba)
+    from d3dwa_bullet.evaluation.eval_summary import TERMINAL_WORLDS, eval_summary
     from d3dwa_bullet.evaluation.jobs import (
         Job,
         check_distinct,
@@ -163,7 +164,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
     if args.json:
         print(json_text(rows))
     else:
-        print(table)
+        if len(names) > TERMINAL_WORLDS:  # per-world tables a terminal cannot show: file only
+            print(eval_summary(rows, methods, names, seeds, args.noise, recovery, training))
+            print(f"per-world tables ({len(names)} worlds): {out / 'table.md'}\n")
+        else:
+            print(table)
         print(f"results: {out / 'results.csv'}\ntable:   {out / 'table.md'}")
         print(f"seeds:   {out / 'table_seeds.md'} (one row per training seed)")
         print(f"figures: {len(figures)} in {out / 'figures'}")
