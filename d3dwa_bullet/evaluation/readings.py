@@ -128,7 +128,8 @@ def read_differences(d: Sequence[float], margin: float, alpha: float = ALPHA) ->
 def _bounded(low: float, high: float, n: int) -> dict[str, Any]:
     """{"low", "high"} of a t interval kept inside what a difference can be
     (:data:`DIFFERENCE_RANGE`); both None, and "why" said, when it spans the whole range, as
-    it does on a handful of layouts (two layouts: t = 12.7): such an interval says nothing."""
+    it does on a handful of layouts (two layouts: t = 12.7): such an interval says nothing
+    (docs/design/cli-output.md#compare-groups-intervals-single-layouts)."""
     lo, hi = DIFFERENCE_RANGE
     if low <= lo and high >= hi:
         return {"low": None, "high": None,

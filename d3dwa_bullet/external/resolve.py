@@ -40,7 +40,8 @@ from d3dwa_bullet.planning.actions import ActionSet
 KINDS = {"choose": "chooser", "command": "velocity planner"}
 #: What a method's own code may end in and be refused for: any exception, and ``sys.exit``
 #: (SystemExit), which would otherwise end the command with the method's status and no line (a
-#: broken method read as a run that succeeded). Ctrl-C (KeyboardInterrupt) stays the user's.
+#: broken method read as a run that succeeded). Ctrl-C (KeyboardInterrupt) stays the user's
+#: (docs/design/cli-output.md#methods-from-outside-the-package).
 METHOD_FAULTS: tuple[type[BaseException], ...] = (Exception, SystemExit)
 
 
