@@ -158,17 +158,18 @@ def cmd_eval(args: argparse.Namespace) -> int:
         )  # fmt: skip
         atomic_write_text(out / "table.md", table)
         atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names, training))
+        if not args.json:  # the tables first: the figures take minutes on many worlds
+            if len(names) > TERMINAL_WORLDS:  # per-world tables a terminal cannot show: file only
+                print(eval_summary(rows, methods, names, seeds, args.noise, recovery, training))
+                print(f"per-world tables ({len(names)} worlds): {out / 'table.md'}\n", flush=True)
+            else:
+                print(table, flush=True)
         figures = world_figures(
             out, worlds, methods, seeds[0], args.noise, figure_seeds(rows), progress=not args.json
         )
     if args.json:
         print(json_text(rows))
     else:
-        if len(names) > TERMINAL_WORLDS:  # per-world tables a terminal cannot show: file only
-            print(eval_summary(rows, methods, names, seeds, args.noise, recovery, training))
-            print(f"per-world tables ({len(names)} worlds): {out / 'table.md'}\n")
-        else:
-            print(table)
         print(f"results: {out / 'results.csv'}\ntable:   {out / 'table.md'}")
         print(f"seeds:   {out / 'table_seeds.md'} (one row per training seed)")
         print(f"figures: {len(figures)} in {out / 'figures'}")

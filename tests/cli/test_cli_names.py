@@ -5,10 +5,12 @@ shipped profile, read from the profiles folder."""
 from __future__ import annotations
 
 import pytest
+import yaml
 
 from d3dwa_bullet.cli.app import build_parser
 from randomization.profiles import list_profiles
-from tests.support.cli import refused
+from tests.conftest import ONE_SECOND_WORLD
+from tests.support.cli import refused, run
 
 
 @pytest.mark.parametrize(
@@ -47,3 +49,35 @@ def test_noise_help_names_every_shipped_profile():
         sub = parser._subparsers._group_actions[0].choices[command]  # noqa: SLF001
         (noise,) = [a for a in sub._actions if "--noise" in a.option_strings]  # noqa: SLF001
         assert all(p in noise.help for p in list_profiles()) and len(list_profiles()) >= 7
+
+
+def test_a_run_of_many_worlds_prints_the_summary_first_and_no_per_world_table(
+    capsys, tmp_path, monkeypatch
+):
+    monkeypatch.setattr("d3dwa_bullet.evaluation.eval_summary.TERMINAL_WORLDS", 1)  # two are many
+    worlds = []
+    for name in ("tiny_a", "tiny_b"):
+        path = tmp_path / f"{name}.yaml"
+        path.write_text(yaml.safe_dump(ONE_SECOND_WORLD | {"name": name}))
+        worlds.append(str(path))
+    out = tmp_path / "r"
+    code, printed, err = run(
+        capsys,
+        "eval",
+        "--methods",
+        "dwa1",
+        "--worlds",
+        ",".join(worlds),
+        "--workers",
+        1,
+        "--out",
+        out,
+    )
+    assert code == 0, err
+    assert (
+        printed.index("## Over every world (2 worlds; noise `none`; recovery layer off)")
+        < printed.index("per-world tables (2 worlds):")
+        < printed.index("figures: 2 in")
+    )
+    assert "| tiny_a |" not in printed and "| tiny_a |" in (out / "table.md").read_text()
+    assert "| DWA I (1,1,2) | 1 evaluation seed | 0 | -- |" in printed  # one run: no interval
