@@ -24,7 +24,7 @@ from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation import training_worlds as tw
 from d3dwa_bullet.evaluation.barn_tables import barn_section
-from d3dwa_bullet.evaluation.eval_summary import conditions
+from d3dwa_bullet.evaluation.eval_summary import conditions, score_formulas
 from d3dwa_bullet.evaluation.floors import chance_sections
 from d3dwa_bullet.evaluation.jobs import figure_name, world_figures
 from d3dwa_bullet.evaluation.noise_axes import AXES
@@ -115,9 +115,8 @@ def eval_markdown(
         "evaluation seed of a method without a policy (fixed, or the random reference). "
         "Intervals: 95 % stratified bootstrap over runs "
         "(scipy.stats.bootstrap, percentile); time is the interquartile mean of the runs' "
-        "mean time to goal; *all* averages the worlds. Score: per episode success x t_ref / "
-        "clip(t, t_ref, 8 t_ref), t_ref = L / v_max, L the route length (docs/design.md#score); "
-        "a run's score is its episodes' mean. Each training seed's row: table_seeds.md.\n\n"
+        f"mean time to goal; *all* averages the worlds. {score_formulas()} Each training "
+        "seed's row: table_seeds.md.\n\n"
         + seed_tables(rows, methods, worlds, mark=mark)
         + "\n"
         + score_tables(rows, methods, worlds, mark)
