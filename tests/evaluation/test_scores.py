@@ -162,6 +162,6 @@ def test_the_iqm_trims_a_quarter_at_each_end_and_the_summary_fits_120_characters
     ]  # fmt: skip
     page = score_tables(rows, ["random@10"], list(scores))
     # mean 0.45; IQM of 0, 0.2, 0.6, 1.0 = mean of 0.2 and 0.6; BARN mean 0.45 / 4
-    summary = next(line for line in page.splitlines() if "0.40 [0.40, 0.40]" in line)
-    assert summary.endswith("| 0.45 [0.45, 0.45] | 0.40 [0.40, 0.40] | 0.113 [0.113, 0.113] |")
+    summary = next(line for line in page.splitlines() if "| 0.40 |" in line)  # one run a world
+    assert summary.endswith("| 0.45 | 0.40 | 0.113 |")
     assert len(summary) <= 120  # the longest method label there is
