@@ -15,8 +15,8 @@ from pathlib import Path
 
 from d3dwa_bullet.errors import CheckpointError, ConfigError
 from d3dwa_bullet.external.guard import external_controller
-from d3dwa_bullet.external.protocol import is_model_file
 from d3dwa_bullet.external.resolve import ExternalMethod, resolve
+from d3dwa_bullet.method_names import is_model_file
 from d3dwa_bullet.method_specs import (
     FIXED,
     LEARNED,

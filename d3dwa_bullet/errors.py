@@ -2,6 +2,8 @@
 
 import errno
 import os
+from collections.abc import Iterable
+from difflib import get_close_matches
 
 
 class D3DWAError(Exception):
@@ -17,6 +19,13 @@ class UnknownNameError(D3DWAError, KeyError):
 
     def __str__(self) -> str:  # KeyError would quote the message
         return str(self.args[0]) if self.args else ""
+
+
+def did_you_mean(name: str, known: Iterable[str]) -> str:
+    """``did you mean 'X'? `` when one known name is close to name (a typo); '' otherwise: the
+    start of an unknown name's hint, for every kind of name (methods, worlds, profiles)."""
+    close = get_close_matches(name, list(known), n=1, cutoff=0.6)
+    return f"did you mean {close[0]!r}? " if close else ""
 
 
 class WorldFormatError(D3DWAError, ValueError):

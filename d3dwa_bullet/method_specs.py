@@ -25,14 +25,14 @@ never shadowed, and installed entry points are read only for a name that is not 
 
 from __future__ import annotations
 
-from d3dwa_bullet.errors import ConfigError, UnknownNameError
-from d3dwa_bullet.external.protocol import (
+from d3dwa_bullet.errors import ConfigError, UnknownNameError, did_you_mean
+from d3dwa_bullet.limits import MAX_DECISION_STEPS
+from d3dwa_bullet.method_names import (
     ENTRY_POINT_GROUP,
     entry_points_named,
     is_import_path,
     is_model_file,
 )
-from d3dwa_bullet.limits import MAX_DECISION_STEPS
 from d3dwa_bullet.planning.actions import (
     ACTIONS_FULL,
     ACTIONS_WEIGHTS_ONLY,
@@ -157,8 +157,8 @@ def check_method(name: str) -> str:
         _EXTERNAL_SEEN.add(name)
         return name
     raise UnknownNameError(
-        f"unknown method {name!r}: choose one of {', '.join(METHODS)}, a class named "
-        f"package.module:Name, or an installed method of {ENTRY_POINT_GROUP} (d3dwa methods)"
+        f"unknown method {name!r}: {did_you_mean(name, METHODS)}`d3dwa methods` lists them (a class from outside: "
+        f"package.module:Name, or an entry point of {ENTRY_POINT_GROUP})"
     )
 
 

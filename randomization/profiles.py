@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from d3dwa_bullet.errors import ConfigError, ProfileError
+from d3dwa_bullet.errors import ConfigError, ProfileError, did_you_mean
 from d3dwa_bullet.limits import check_weights
 from d3dwa_bullet.loading import load_yaml
 from d3dwa_bullet.resources import profiles_dir
@@ -167,7 +167,9 @@ def load_profile(name_or_path: str | Path) -> Profile:
     if not is_path:
         known = list_profiles()
         if text not in known:
-            raise ProfileError(f"unknown profile {text!r}; known profiles: {', '.join(known)}")
+            raise ProfileError(
+                f"unknown profile {text!r}; {did_you_mean(text, known)}known profiles: {', '.join(known)}"
+            )
         path = profiles_dir() / f"{text}.yaml"
     else:
         path = Path(name_or_path)

@@ -40,7 +40,7 @@ def run(
     methods: Sequence[str] | None = None,
     seeds: int = 3,
     first_seed: int = 0,
-    workers: int = 0,
+    workers: int | None = None,
     ray: str | None = None,
     out: str | Path = "results",
     tables: str | Path = "tables",
@@ -62,7 +62,9 @@ def run(
         results = Path(out) / name
         argv = ["eval", "--methods", ",".join(methods), "--worlds", ",".join(worlds),
                 "--seeds", str(seeds), "--seed", str(first_seed), "--out", str(results),
-                "--workers", str(workers), "--noise", noise]  # fmt: skip
+                "--noise", noise]  # fmt: skip
+        if workers is not None:  # else the CLI's default: all cores
+            argv += ["--workers", str(workers)]
         if ray:
             argv += ["--ray", ray]
         if quiet:
@@ -83,7 +85,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--methods", help="comma list (default: baselines + methods with a policy)")
     ap.add_argument("--seeds", type=int, default=3, help="seeds per (method, world)")
     ap.add_argument("--seed", type=int, default=0, help="first seed")
-    ap.add_argument("--workers", type=int, default=0, help="local processes (default: all cores)")
+    ap.add_argument("--workers", type=int, help="local processes (default: all cores)")
     ap.add_argument("--ray", metavar="ADDRESS", help="local, auto, HOST:PORT or ray://HOST:PORT")
     ap.add_argument("--out", default="results", help="results root (table1/, table2/ inside)")
     ap.add_argument("--tables", default="tables", help="where table1.md and table2.md go")

@@ -102,3 +102,19 @@ def test_ci_runs_exactly_the_readme_test_command():
     main_job = next(c for c in commands if "d3dwa eval" in c)
     assert test_command in (ROOT / ".ci" / "run").read_text().splitlines()
     assert " -e " not in main_job  # the main job works from a plain install
+
+
+@pytest.mark.skipif(not (ROOT / ".git").exists(), reason="not a git checkout")
+@pytest.mark.parametrize(
+    "made",
+    [
+        "build/lib/x.py",
+        "examples/follow_the_gap/build/lib/x.py",
+        "examples/sb3_dqn/build/x",
+        "results_barn/table.md",
+    ],
+)
+def test_what_the_readme_commands_leave_behind_is_ignored(made):
+    """``pip install ./examples/...`` leaves build/ folders, the BARN command results_barn/."""
+    found = subprocess.run(["git", "check-ignore", "-q", made], cwd=ROOT, check=False)
+    assert found.returncode == 0, made

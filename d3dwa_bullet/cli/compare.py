@@ -114,18 +114,19 @@ def _groups_of(
     style_of: Callable[[Any], str | None] | None = None,
     barn_pooled: bool = False,
 ) -> list[str]:
-    """The groups of a row, finest first. style_of: a sweep's unseen layout is also in its
+    """The groups of a row, finest first, each named with its noise profile (``real, noise
+    none``: the world group ``real`` and the profile ``real`` cannot be mixed up). style_of: a sweep's unseen layout is also in its
     generator style's group (a stratum), before the pooled ``generated``. barn_pooled: a BARN
     world's tercile group is pooled in ``barn`` (a sweep that also holds other layouts)."""
-    noise = row["noise"]
+    noise = f"noise {row['noise']}"  # said as noise: a world group named real is no profile
     if "layout" in row:  # a sweep's row
         style = style_of(row) if style_of else None
-        finer = [f"{style} ({noise})"] if style else []
-        pool = [f"barn ({noise})"] if barn_pooled and row["layout"] in TERCILE_GROUPS else []
-        return [*finer, f"{row['layout']} ({noise})", *pool, f"all layouts ({noise})"]
-    barn = barn_index(row["world"])  # a BARN world of an eval: its difficulty tercile
-    group = shipped.get(row["world"], "custom") if barn is None else barn_tercile_group(barn)
-    return [f"{group} ({noise})", f"all worlds ({noise})"]
+        finer = [f"{style}, {noise}"] if style else []
+        pool = [f"barn, {noise}"] if barn_pooled and row["layout"] in TERCILE_GROUPS else []
+        return [*finer, f"{row['layout']}, {noise}", *pool, f"all layouts, {noise}"]
+    barn_id = barn_index(row["world"])  # a BARN world of an eval: its difficulty tercile
+    group = shipped.get(row["world"], "custom") if barn_id is None else barn_tercile_group(barn_id)
+    return [f"{group}, {noise}", f"all worlds, {noise}"]
 
 
 def _side(out: Path, method: str, warn: bool = True) -> tuple[list[dict[str, Any]], str, bool]:
@@ -364,6 +365,7 @@ def _print(
         mark = cell_mark(trained_names)
         print("\n" + seed_tables(rows, [key_a, key_b], worlds, sides, mark), end="")
         print(fit_prose(f"\n{absent}"))
+        print(fit_prose("\nReading: inconclusive (one shared layout cannot decide; see above)."))
         return
     seeds = {int(r["seed"]) for r in rows}
     if by_seed and len(seeds) > 1:

@@ -103,6 +103,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     noise_arg(args.noise)
     loaded = [load_cli_world(w, args.allow_empty) for w in world_args]
     # start-up cost: the episodes import the simulator (pybullet) and the planner (numba)
+    from d3dwa_bullet.evaluation.eval_summary import TERMINAL_WORLDS, eval_summary
     from d3dwa_bullet.evaluation.jobs import (
         Job,
         check_distinct,
@@ -156,11 +157,18 @@ def cmd_eval(args: argparse.Namespace) -> int:
         )  # fmt: skip
         atomic_write_text(out / "table.md", table)
         atomic_write_text(out / "table_seeds.md", seeds_markdown(rows, methods, names, training))
-        figures = world_figures(out, worlds, methods, seeds[0], args.noise, figure_seeds(rows))
+        if not args.json:  # the tables first: the figures take minutes on many worlds
+            if len(names) > TERMINAL_WORLDS:  # per-world tables a terminal cannot show: file only
+                print(eval_summary(rows, methods, names, seeds, args.noise, recovery, training))
+                print(f"per-world tables ({len(names)} worlds): {out / 'table.md'}\n", flush=True)
+            else:
+                print(table, flush=True)
+        figures = world_figures(
+            out, worlds, methods, seeds[0], args.noise, figure_seeds(rows), progress=not args.json
+        )
     if args.json:
         print(json_text(rows))
     else:
-        print(table)
         print(f"results: {out / 'results.csv'}\ntable:   {out / 'table.md'}")
         print(f"seeds:   {out / 'table_seeds.md'} (one row per training seed)")
         print(f"figures: {len(figures)} in {out / 'figures'}")

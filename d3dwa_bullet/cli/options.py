@@ -39,7 +39,7 @@ from d3dwa_bullet.planning.scan_filter import SCAN_FILTERS
 from d3dwa_bullet.sim.backend import BACKENDS, DEFAULT_BACKEND, check_backend
 from d3dwa_bullet.world.model import World, goal_in_obstacle, start_in_collision
 from d3dwa_bullet.world.registry import load_world, world_file_kind
-from randomization.profiles import load_profile
+from randomization.profiles import list_profiles, load_profile
 
 RAY_HELP = (
     "run episodes on Ray: 'local' (a private instance), 'auto' (the cluster of `ray start`), "
@@ -207,12 +207,16 @@ def load_task_world(args: argparse.Namespace) -> World:
         raise
 
 
+#: --noise's help: every shipped profile, read from the profiles folder, never typed here.
+NOISE_HELP = f"randomisation profile: {', '.join(list_profiles())}, or a YAML path"
+
+
 def add_episode_options(p: argparse.ArgumentParser) -> None:
     """--noise, --policy, --json and the two rates, as `d3dwa run` and `d3dwa eval` take them."""
     p.add_argument(
         "--noise",
         default="none",
-        help="randomisation profile: none, paper, real, harsh, or a YAML path",
+        help=NOISE_HELP,
     )
     p.add_argument(
         "--policy",
@@ -311,18 +315,23 @@ def scan_filter_arg(args: argparse.Namespace) -> str:
 
 def add_backend_options(p: argparse.ArgumentParser) -> None:
     """--workers and --ray: where a command's episodes run."""
-    p.add_argument("--workers", type=int, default=0, help="processes (default: all cores)")
+    p.add_argument("--workers", type=int, help="processes, >= 1 (default: all cores)")
     p.add_argument("--ray", metavar="ADDRESS", help=RAY_HELP)
 
 
 def workers_arg(args: argparse.Namespace) -> int:
-    """--workers, default all cores; refuses negative counts, and more local processes
-    than :func:`d3dwa_bullet.limits.max_processes` (Ray's workers are the cluster's)."""
-    if args.workers < 0:
-        raise ConfigError(f"--workers must be >= 0 (0 = all cores), got {args.workers}")
+    """--workers, default (not given) all cores; refuses a count below 1 (0 used to mean all
+    cores, read by a user as "none"), and more local processes than
+    :func:`d3dwa_bullet.limits.max_processes` (Ray's workers are the cluster's)."""
+    if args.workers is None:
+        return os.cpu_count() or 1
+    if args.workers < 1:
+        raise ConfigError(
+            f"--workers must be >= 1, got {args.workers} (leave it out for all cores)"
+        )
     if getattr(args, "ray", None) in (None, "local"):
         check_processes("--workers", args.workers)
-    return args.workers or os.cpu_count() or 1
+    return args.workers
 
 
 def default_methods() -> list[str]:

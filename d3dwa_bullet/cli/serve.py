@@ -14,7 +14,13 @@ import socket
 import threading
 
 from d3dwa_bullet.cli.drive import robot_extra
-from d3dwa_bullet.cli.options import add_world_option, load_cli_world, noise_arg, seed_arg
+from d3dwa_bullet.cli.options import (
+    NOISE_HELP,
+    add_world_option,
+    load_cli_world,
+    noise_arg,
+    seed_arg,
+)
 from d3dwa_bullet.errors import ConfigError
 
 
@@ -22,7 +28,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("serve", help="serve a simulated Kachaka over the Kachaka API (gRPC)")
     add_world_option(p, required=True, help="world name (see `d3dwa worlds`) or a world file")
     p.add_argument(
-        "--noise", default="none", help="randomisation profile: none, paper, real, harsh, or a YAML path"
+        "--noise", default="none", help=NOISE_HELP
     )  # fmt: skip
     p.add_argument("--seed", type=int, default=0, help="episode seed (noise draws)")
     p.add_argument("--port", type=int, default=26400, help="port to listen on (0: any free port)")

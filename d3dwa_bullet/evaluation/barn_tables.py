@@ -40,16 +40,18 @@ def barn_section(
     columns: Sequence[str],
     column_of: Callable[[Row], str | None],
     flag: Callable[[str, Collection[str]], str] | None = None,
+    label: str = "",
 ) -> str:
     """Markdown: success over runs per BARN split (when the rows hold both) and per
     difficulty tercile, one column per ``columns`` (e.g. the noise profile); "" without
     BARN rows. Non-BARN rows are left out. flag: the text after a row's group for (method,
-    its worlds): how many are that method's training worlds (``training_worlds.group_flag``)."""
+    its worlds): how many are that method's training worlds (``training_worlds.group_flag``).
+    label: the conditions its heading names (split, profile, recovery layer), if any."""
     barn = [r for r in rows if barn_index(r["world"]) is not None]
     if not barn:
         return ""
     parts = [
-        "\n## BARN by split and difficulty\n\n"
+        f"\n## BARN by split and difficulty{f' ({label})' if label else ''}\n\n"
         f"Success rate [%] averaged over the BARN worlds of a group, 95 % stratified bootstrap "
         f"over runs. Terciles rank all 300 worlds by `{TERCILE_MEASURE}` (mean clearance along "
         "BARN's reference path), fixed before any method ran (docs/worlds.md#barn).\n\n"

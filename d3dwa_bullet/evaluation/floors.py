@@ -29,9 +29,15 @@ FLOORS_NOTE = (
     "(`random@10`, `random-weights@10`: 1 s). P(method > floor) over the tasks both ran, 95 % "
     "stratified bootstrap over runs; a floor is cleared when the interval's lower end is above "
     "0.5 (docs/design/methods.md#floors). A chooser from outside the package: the uniform chooser over "
-    "its declared action set, every step and held for its declared period; a velocity planner "
-    "has no action set and is read against DWA III (`dwa3`), the reference."
+    "its declared action set, every step and held for its declared period."
 )
+REFERENCE_NOTE = (
+    "A velocity planner from outside the package has no action set, so no floor: it is read "
+    "against DWA III (`dwa3`), the reference. P(method > reference) over the tasks both ran, "
+    "95 % stratified bootstrap over runs; a reading, not a floor cleared."
+)
+#: Said in place of an interval when each side has one run: the bootstrap has nothing to draw.
+ONE_RUN_EACH = "no interval (one run each)"
 #: The reference of a velocity planner from outside the package, which has no floor.
 VELOCITY_REFERENCE = "dwa3"
 CLEARED_ABOVE = 0.5
@@ -73,17 +79,46 @@ def floor_records(rows: Sequence[Mapping[str, Any]], methods: Sequence[str]) -> 
                 rec = improvement(rows, m, floor, lambda r: [])[-1]
             except ResultsError:  # an incomplete directory: no task run by both yet
                 continue
+            one_run = rec["runs_a"] == rec["runs_b"] == 1  # a zero-width interval: none
             out.append({"method": m, "floor": floor, "p": rec["p"], "low": rec["low"],
-                        "high": rec["high"], "tasks": rec["tasks"],
-                        "cleared": rec["low"] > CLEARED_ABOVE,
+                        "high": rec["high"], "tasks": rec["tasks"], "one_run_each": one_run,
+                        "cleared": not one_run and rec["low"] > CLEARED_ABOVE,
                         "reference_only": reference_only})  # fmt: skip
     return out
 
 
+def chance_sections(
+    rows: Sequence[Mapping[str, Any]], methods: Sequence[str], heading: str = "##", where: str = ""
+) -> str:
+    """The Markdown sections "Against chance" (each learned or external chooser against its
+    floors) and, apart, "Against the reference" (each external velocity planner against DWA
+    III, which is no floor); empty when neither has a row. heading: the Markdown level; where:
+    words after each title (" (every layout and condition)")."""
+    records = floor_records(rows, methods)
+    floors = [r for r in records if not r["reference_only"]]
+    references = [r for r in records if r["reference_only"]]
+    out = ""
+    if floors:
+        out += f"\n{heading} Against chance{where}\n\n{FLOORS_NOTE}\n\n{floor_table(floors)}"
+    if references:
+        out += (
+            f"\n{heading} Against the reference{where}\n\n{REFERENCE_NOTE}\n\n"
+            f"{reference_table(references)}"
+        )
+    return out
+
+
+def _p_cell(r: Mapping[str, Any]) -> str:
+    if r.get("one_run_each"):
+        return f"{r['p']:.2f}, {ONE_RUN_EACH}"
+    return f"{r['p']:.2f} [{r['low']:.2f}, {r['high']:.2f}]"
+
+
 def floor_table(records: Sequence[Mapping[str, Any]]) -> str:
-    """One row per learned method and floor: P(method > floor) with its interval, and whether
-    it cleared that floor. A row per floor keeps the table narrow however long a method's
-    label (docs/design/metrics.md#page-width); the method is named on its first row."""
+    """One row per learned or external chooser and floor: P(method > floor) with its interval,
+    and whether it cleared that floor ("--" with one run each side: no interval to read). A row
+    per floor keeps the table narrow however long a method's label (docs/design/metrics.md#page-width);
+    the method is named on its first row."""
     if not records:
         return ""
     lines = [
@@ -95,9 +130,20 @@ def floor_table(records: Sequence[Mapping[str, Any]]) -> str:
         m = r["method"]
         label = "" if m in shown else method_label(m)
         shown.add(m)
-        floor, cleared = f"`{r['floor']}`", "yes" if r["cleared"] else "no"
-        if r.get("reference_only"):  # a velocity planner: no action set, so no floor
-            floor = f"{floor} (no action set: a reference, not a floor)"
-        p = f"{r['p']:.2f} [{r['low']:.2f}, {r['high']:.2f}]"
-        lines.append(f"| {label} | {floor} | {p} | {cleared} |")
+        cleared = "--" if r.get("one_run_each") else ("yes" if r["cleared"] else "no")
+        lines.append(f"| {label} | `{r['floor']}` | {_p_cell(r)} | {cleared} |")
+    return "\n".join(lines) + "\n"
+
+
+def reference_table(records: Sequence[Mapping[str, Any]]) -> str:
+    """One row per velocity planner: P(method > DWA III) with its interval; no "cleared"
+    column, since a reference is not a floor."""
+    lines = [
+        "| Method | Reference | P(method > reference) [95 % interval] | Tasks |",
+        "|---|---|---:|---:|",
+    ]
+    for r in records:
+        lines.append(
+            f"| {method_label(r['method'])} | `{r['floor']}` | {_p_cell(r)} | {r['tasks']} |"
+        )
     return "\n".join(lines) + "\n"

@@ -1,6 +1,7 @@
 """Evaluate methods on worlds over seeds: independent episodes, spread over processes.
 
-A :class:`Job` is one episode (world, method, seed, noise); :func:`evaluate` runs every job
+A :class:`~d3dwa_bullet.evaluation.job.Job` is one episode (world, method, seed, noise);
+:func:`evaluate` runs every job
 of a list not yet in a results directory (see :mod:`d3dwa_bullet.evaluation.results` for
 what the directory holds and how a run resumes) and returns the rows of the whole list.
 
@@ -14,9 +15,8 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import re
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +28,7 @@ from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig, EpisodeResult, run_episode
 from d3dwa_bullet.errors import ConfigError, ResultsError
+from d3dwa_bullet.evaluation.job import Job, log_name
 from d3dwa_bullet.evaluation.policy_runs import check_scan_filters
 from d3dwa_bullet.evaluation.repeats import kept_keys
 from d3dwa_bullet.evaluation.results import (
@@ -39,7 +40,6 @@ from d3dwa_bullet.evaluation.results import (
     drop_partial_row,
     load_log,
     order_results,
-    policy_seed_cell,
     read_results,
     row_key,
     save_log,
@@ -54,7 +54,7 @@ from d3dwa_bullet.evaluation.reuse import (
     world_digests,
 )
 from d3dwa_bullet.evaluation.same_run import check_same_run, run_fields, run_settings
-from d3dwa_bullet.evaluation.scores import add_scores, needs_scores, score_cells
+from d3dwa_bullet.evaluation.scores import add_scores, needs_scores
 from d3dwa_bullet.io import file_stem
 from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.sim.backend import check_backend_worlds
@@ -63,60 +63,6 @@ from d3dwa_bullet.sim.noise_config import NoiseConfig
 from d3dwa_bullet.world.model import World
 from d3dwa_bullet.world.routes import official_length, reference_length
 from randomization import episode_noise, load_profile
-
-_UNSAFE = re.compile(r"[^A-Za-z0-9._=+-]")
-
-
-@dataclass(frozen=True)
-class Job:
-    """One episode to run."""
-
-    world: World
-    method: str
-    seed: int
-    noise: str = "none"
-    """A profile name (none, paper, real, harsh, a YAML path), or the label of noise_config."""
-    policy: str | None = None
-    noise_config: str | None = None
-    """JSON of ``NoiseConfig.to_dict()``: this exact noise instead of sampling a profile
-    (the episode then gets ``NoiseModel(config, seed)``). A string keeps Job hashable."""
-    columns: tuple[tuple[str, str | float | int], ...] = ()
-    """Extra CSV columns of this job's row, e.g. (("axis", "slip"), ("level", 0.1))."""
-    policy_seed: int | None = None
-    """The training seed of ``policy`` (its ``seed-<k>`` folder), None if it has none."""
-
-    @property
-    def key(self) -> Key:
-        return (self.world.name, self.method, self.policy_seed, self.seed, self.noise)
-
-    @property
-    def log_name(self) -> str:
-        return log_name(self.key)
-
-    def row(self, result: EpisodeResult, v_max: float) -> dict[str, Any]:
-        """The CSV row of this job's result, scored (docs/design/score.md#score) with the world's
-        reference length and v_max, the robot's top speed (m/s)."""
-        summary = result.summary()
-        return (
-            summary
-            | {"policy_seed": policy_seed_cell(self.policy_seed)}
-            | score_cells(
-                summary["outcome"],
-                summary["time_s"],
-                reference_length(self.world),
-                v_max,
-                official_length(self.world),
-            )  # fmt: skip
-            | dict(self.columns)
-        )
-
-
-def log_name(key: Key) -> str:
-    """The file name, in a results directory's logs/, of the episode with this key (a key
-    too long for a file name is cut and hashed: :func:`~d3dwa_bullet.io.file_stem`)."""
-    world, method, policy_seed, seed, noise = key
-    trained = "" if policy_seed is None else f"__p{policy_seed}"
-    return file_stem(_UNSAFE.sub("_", f"{world}__{method}{trained}__{noise}__s{seed}")) + ".npz"
 
 
 def row_log_path(out: Path, row: Mapping[str, Any]) -> Path:
@@ -342,17 +288,22 @@ def world_figures(
     seed: int,
     noise: str,
     policy_seeds: Mapping[str, int | None] | None = None,
+    progress: bool = False,
 ) -> list[Path]:
     """One figure per world: every method's trajectory, coloured by time (and by tau for
     learned). policy_seeds: the training seed whose episode is drawn, per method (default
-    none: a fixed method or a single policy)."""
+    none: a fixed method or a single policy). Each figure says which episode a panel is (the
+    evaluation seed in its title, a learned method's training seed in its panel's), since the
+    tables average over every seed. progress: a bar on stderr, one step per world."""
     # matplotlib takes ~0.3 s to import; every spawned worker imports this module, none draws
     from d3dwa_bullet.evaluation.plotting import trajectory_figure
     from d3dwa_bullet.planning.global_plan import logged_paths
 
     policy_seeds = policy_seeds or {}
     paths = []
-    for world in worlds:
+    worlds = list(worlds)
+    shown = f"one episode each: evaluation seed {seed}, noise {noise}"
+    for world in tqdm(worlds, desc="figures", unit="world", disable=not progress, leave=False):
         runs = []
         for method in methods:
             job = Job(world, method, seed, noise, policy_seed=policy_seeds.get(method))
@@ -379,7 +330,15 @@ def world_figures(
         if not runs:
             continue
         fig_dir = out / "figures"
-        paths.append(trajectory_figure(world, runs, fig_dir / figure_name(world.name, "time")))
+        trained = (
+            "; · seed k: training seed k"
+            if any(p is not None for p in policy_seeds.values())
+            else ""
+        )
+        title = f"{world.name}: {world.description} ({shown}{trained})"
+        paths.append(
+            trajectory_figure(world, runs, fig_dir / figure_name(world.name, "time"), title=title)
+        )
         learned = [r for r in runs if r["method"].startswith("d3dwa")]
         if learned:
             paths.append(
@@ -388,7 +347,8 @@ def world_figures(
                     learned,
                     fig_dir / figure_name(world.name, "tau"),
                     colour_by="tau",
-                    title=f"{world.name}: D3DWA trajectories coloured by the selected horizon",
+                    title=f"{world.name}: D3DWA trajectories coloured by the selected horizon "
+                    f"({shown}{trained})",
                 )  # fmt: skip
             )
     return paths

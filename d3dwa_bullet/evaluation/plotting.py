@@ -19,6 +19,7 @@ from matplotlib.patches import Circle, Patch, Polygon  # noqa: E402
 from d3dwa_bullet.io import atomic_savefig  # noqa: E402
 from d3dwa_bullet.method_specs import METHODS, barn_twin, method_label, reference_of  # noqa: E402
 from d3dwa_bullet.params import RECOVERY_BEHAVIOURS  # noqa: E402
+from d3dwa_bullet.planning.actions import ACTIONS_FULL  # noqa: E402
 from d3dwa_bullet.world.model import Cylinder, World, obstacle_outline  # noqa: E402
 
 
@@ -42,7 +43,7 @@ def draw_world(ax: plt.Axes, world: World) -> None:
 
 
 def draw_path(
-    ax: plt.Axes, x: np.ndarray, y: np.ndarray, colour: np.ndarray, norm, cmap: str
+    ax: plt.Axes, x: np.ndarray, y: np.ndarray, colour: np.ndarray, norm, cmap: Any
 ) -> LineCollection:
     """A path whose segments are coloured by colour (N,) under norm."""
     pts = np.column_stack((x, y)).reshape(-1, 1, 2)
@@ -146,6 +147,18 @@ def _end_mark(outcome: str, size: float = 1.0) -> dict[str, Any]:
     return {"marker": mark, "ms": 11 * size, "mfc": colour, "mec": "white", "mew": 1.2}
 
 
+def horizon_colours(taus: np.ndarray) -> tuple[Any, Any, np.ndarray]:
+    """(norm, colour map, ticks) for paths coloured by the selected horizon: one colour per
+    horizon, the action set's (2, 3, 4, 5 s) and any other finite value in taus (s), with
+    boundaries halfway between them, so the colour bar is in bands, not a continuous scale."""
+    finite = taus[np.isfinite(taus)] if taus.size else taus
+    values = np.unique(np.concatenate([np.asarray(ACTIONS_FULL.horizons, float), finite]))
+    mids = (values[:-1] + values[1:]) / 2
+    edges = np.concatenate([[values[0] - 0.5], mids, [values[-1] + 0.5]])
+    cmap = plt.get_cmap("viridis").resampled(len(values))
+    return matplotlib.colors.BoundaryNorm(edges, len(values)), cmap, values
+
+
 def trajectory_figure(
     world: World,
     runs: Sequence[dict],
@@ -173,10 +186,10 @@ def trajectory_figure(
         rows, columns, figsize=(width * columns + 1.4, (0.9 * height + 0.45) * rows + 1.0),
         squeeze=False, sharex=True, sharey=True, layout="constrained",
     )  # fmt: skip
+    ticks = None
     if colour_by == "tau":
-        taus = np.concatenate([r["tau"] for r in runs if len(r["tau"])] or [np.array([2.0, 5.0])])
-        norm = matplotlib.colors.Normalize(vmin=min(2.0, taus.min()), vmax=max(5.0, taus.max()))
-        cmap, label = "viridis", "selected horizon tau [s]"
+        norm, cmap, ticks = horizon_colours(np.concatenate([r["tau"] for r in runs] or [[]]))
+        label = "selected horizon tau [s]"
     else:
         tmax = max([float(r["t"][-1]) for r in runs if len(r["t"])] or [1.0])
         norm = matplotlib.colors.Normalize(vmin=0.0, vmax=max(tmax, 1e-3))
@@ -220,7 +233,10 @@ def trajectory_figure(
         loc="outside lower center", ncol=8, fontsize=8, frameon=False,
     )  # fmt: skip
     if lc is not None:
-        fig.colorbar(lc, ax=axes.ravel().tolist(), label=label, shrink=0.85 / rows**0.5)
+        bar = fig.colorbar(lc, ax=axes.ravel().tolist(), label=label, shrink=0.85 / rows**0.5)
+        if ticks is not None:  # one band per horizon: tau takes only these values
+            bar.set_ticks(ticks, labels=[f"{t:g}" for t in ticks])
+            bar.minorticks_off()
     fig.suptitle(title or f"{world.name}: {world.description}", fontsize=10)
     return _save(fig, path)
 

@@ -24,7 +24,9 @@ and the reading, exactly one of four (:func:`reading_of`):
   ``paired.layouts_for_equivalence``).
 
 A difference that is also within the margin reads as the difference, its equivalence kept
-in the record (``equivalent``) and the text. Fewer than two layouts read as inconclusive with
+in the record (``equivalent``) and the text. The interval is cut to what a difference can be
+(:data:`DIFFERENCE_RANGE`), and given as none, with why, where it spans all of it (two or three
+layouts). Fewer than two layouts read as inconclusive with
 why (a t-test needs two); layouts without the same spread (every difference equal) take the
 t-test's limit (p 0 towards that difference); a NaN value gives no reading, naming the
 layouts, never a NaN p-value. Pure: numpy and SciPy on the rows, no simulator, no torch.
@@ -59,6 +61,10 @@ POWER = 0.8
 """The power a planned number of layouts aims at."""
 READINGS = ("A better", "B better", "equivalent", "inconclusive")
 NO_SCORE = "no score: results from before the score"
+#: What A - B can be in every metric: each lies in [0, 1] (success a fraction of episodes;
+#: the score and BARN's official score at most 1), so an interval is cut to [-1, 1].
+DIFFERENCE_RANGE = (-1.0, 1.0)
+NO_INTERVAL = "no interval"
 
 
 def _p(result: Any) -> float:
@@ -98,7 +104,7 @@ def read_differences(d: Sequence[float], margin: float, alpha: float = ALPHA) ->
     else:
         test = stats.ttest_1samp(x, 0.0)
         interval = test.confidence_interval(1 - alpha)
-        out |= {"low": float(interval.low), "high": float(interval.high),
+        out |= {**_bounded(float(interval.low), float(interval.high), n),
                 "p_a_better": _p(stats.ttest_1samp(x, 0.0, alternative="greater")),
                 "p_b_better": _p(stats.ttest_1samp(x, 0.0, alternative="less")),
                 "tost_p": max(_p(stats.ttest_1samp(x, -margin, alternative="greater")),
@@ -123,6 +129,19 @@ def reading_rule(p_a_better: float, p_b_better: float, tost_p: float, alpha: flo
     if p_b_better < alpha / 2:
         return "B better"
     return "equivalent" if tost_p < alpha else "inconclusive"
+
+
+def _bounded(low: float, high: float, n: int) -> dict[str, Any]:
+    """{"low", "high"} of a t interval kept inside what a difference can be
+    (:data:`DIFFERENCE_RANGE`); both None, and "why" said, when it spans the whole range, as
+    it does on a handful of layouts (two layouts: t = 12.7): such an interval says nothing
+    (docs/design/cli-output.md#compare-groups-intervals-single-layouts)."""
+    lo, hi = DIFFERENCE_RANGE
+    if low <= lo and high >= hi:
+        return {"low": None, "high": None,
+                "why": f"{NO_INTERVAL}: on {n} layouts the 95 % t interval spans every possible "
+                "difference"}  # fmt: skip
+    return {"low": max(low, lo), "high": min(high, hi)}
 
 
 def _whole(n: float) -> int | None:
@@ -211,10 +230,12 @@ def reading_text(record: Mapping[str, Any]) -> str:
     if reading is None:
         return str(why)
     within = margin_text(record["metric"], record["margin"])
+    # no spread, or no interval: said beside the reading, short (the record keeps the whole)
+    said = f" ({str(why).partition(':')[0]})" if why else ""
     if reading in ("A better", "B better"):
-        return reading + (f"; also within {within}" if record["equivalent"] else "")
+        return reading + (f"; also within {within}" if record["equivalent"] else "") + said
     if reading == "equivalent":
-        return f"equivalent within {within}"
+        return f"equivalent within {within}{said}"
     if record.get("needed") is None:
         return f"inconclusive ({why})"
     return f"inconclusive (about {record['needed']} layouts would decide)"
@@ -250,14 +271,17 @@ def readings_table(
         for metric, r in per.items():
             m = f"{metric} ({margin_text(metric, r['margin'])})"
             diff, p, tost = "--", "--", "--"
+            if r.get("difference") is not None:
+                diff = metric_text(metric, r["difference"], True)
             if r.get("low") is not None:
                 low, high = (metric_text(metric, r[k], True) for k in ("low", "high"))
-                diff = f"{metric_text(metric, r['difference'], True)} [{low}, {high}]"
+                diff += f" [{low}, {high}]"
+            elif str(r.get("why")).startswith(NO_INTERVAL):
+                diff += f" ({NO_INTERVAL} on {r['layouts']} layouts)"
+            if r.get("p_a_better") is not None:
                 a_side = r["p_a_better"] <= r["p_b_better"]
                 p = f"{min(r['p_a_better'], r['p_b_better']):.3g} ({'A > B' if a_side else 'B > A'})"
                 tost = f"{r['tost_p']:.3g}"
-            elif r.get("difference") is not None:
-                diff = metric_text(metric, r["difference"], True)
             means = [metric_text(metric, r.get(k)) for k in ("mean_a", "mean_b")]
             body.append([group, m, str(r["layouts"]), *means, diff, p, tost, reading_text(r)])
             if trained_on:

@@ -24,7 +24,8 @@ from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation import training_worlds as tw
 from d3dwa_bullet.evaluation.barn_tables import barn_section
-from d3dwa_bullet.evaluation.floors import FLOORS_NOTE, floor_records, floor_table
+from d3dwa_bullet.evaluation.eval_summary import conditions, score_formulas
+from d3dwa_bullet.evaluation.floors import chance_sections
 from d3dwa_bullet.evaluation.jobs import figure_name, world_figures
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.page_width import fit_prose, world_span
@@ -96,6 +97,8 @@ def eval_markdown(
     trained = tw.trained_worlds(barn_training or {})
     mark = tw.cell_mark(trained)
     span = f"{seeds[0]}..{seeds[-1]}" if seeds else "none"
+    layer = "off (the paper's stack)" if recovery == "none" else f"`{recovery}`"
+    column, label = f"noise `{noise}`", conditions(worlds, noise, recovery)  # BARN's tables
     keys = "".join(
         f"World `{key}` is {source} (keyed apart from another world of that name).\n\n"
         for key, source in (renamed or {}).items()
@@ -104,7 +107,7 @@ def eval_markdown(
         f"# {title or 'Evaluation: ' + world_span(worlds)}\n\n"
         f"{run_notes(recovery, policy_notes, scan_filter)}"
         f"{tw.training_lines(barn_training or {}, worlds)}"
-        f"Noise profile: `{noise}`; evaluation seeds: {span}.\n\n"
+        f"Noise profile: `{noise}`; evaluation seeds: {span}; recovery layer: {layer}.\n\n"
         f"{repeats_note(len(seeds), methods, noise)}"
         f"{keys}"
         "## Over training seeds\n\n"
@@ -112,9 +115,8 @@ def eval_markdown(
         "evaluation seed of a method without a policy (fixed, or the random reference). "
         "Intervals: 95 % stratified bootstrap over runs "
         "(scipy.stats.bootstrap, percentile); time is the interquartile mean of the runs' "
-        "mean time to goal; *all* averages the worlds. Score: per episode success x t_ref / "
-        "clip(t, t_ref, 8 t_ref), t_ref = L / v_max, L the route length (docs/design/score.md#score); "
-        "a run's score is its episodes' mean. Each training seed's row: table_seeds.md.\n\n"
+        f"mean time to goal; *all* averages the worlds. {score_formulas()} Each training "
+        "seed's row: table_seeds.md.\n\n"
         + seed_tables(rows, methods, worlds, mark=mark)
         + "\n"
         + score_tables(rows, methods, worlds, mark)
@@ -124,14 +126,14 @@ def eval_markdown(
         "C = collision; (k/n) where only k of n episodes succeeded; best per world and metric "
         "in bold.\n\n"
         + paper_table(rows, methods, worlds, mark)
-        + barn_section(rows, methods, [noise], lambda r: r["noise"], tw.group_flag(trained))
+        + barn_section(rows, methods, [column], lambda r: column, tw.group_flag(trained), label)
     )
 
 
 def floors_section(rows: Sequence[dict[str, Any]], methods: Sequence[str]) -> str:
-    """ "Against chance": which floor each learned method cleared (empty without one)."""
-    table = floor_table(floor_records(rows, methods))
-    return f"\n## Against chance\n\n{FLOORS_NOTE}\n\n{table}" if table else ""
+    """ "Against chance": which floor each learned method cleared, and apart from it a velocity
+    planner against its reference (empty without either)."""
+    return chance_sections(rows, methods)
 
 
 def seeds_markdown(

@@ -179,7 +179,24 @@ def read_results(out: Path) -> list[dict[str, Any]]:
                 ) from err
         row[RECOVERY_FIELD] = row.get(RECOVERY_FIELD) or "none"
     check_one_track(path, rows, RECOVERY_FIELD)
+    check_rows_once(path, rows)
     return rows
+
+
+def check_rows_once(path: Path, rows: Sequence[Mapping[str, Any]]) -> None:
+    """ResultsError if two rows are one episode (the same world, method, training seed, seed
+    and noise): a row written twice, by hand or by a copy, would count twice in every table."""
+    first: dict[Key, int] = {}
+    for line, row in enumerate(rows, start=2):
+        seen = first.setdefault(row_key(row), line)
+        if seen != line:
+            world, method, policy_seed, seed, noise = row_key(row)
+            trained = "" if policy_seed is None else f", training seed {policy_seed}"
+            raise ResultsError(
+                f"{path}: line {line} repeats the episode of line {seen} (world {world!r}, "
+                f"method {method!r}{trained}, seed {seed}, noise {noise!r}); an episode is one "
+                "row: remove the copy"
+            )
 
 
 def read_meta(out: Path) -> dict[str, Any]:
@@ -266,11 +283,31 @@ def check_results_dir(
             f"--backend {backend}; one directory never mixes backends: use another --out directory"
         )
     if fields is not None and header is not None and header not in (list(fields), unscored(fields)):
+        _check_sources(out, header, fields)
         kind = read_meta(out).get("settings", {}).get("kind", "another command")
         raise ResultsError(
             f"{out / 'results.csv'}: columns {header} were written by {kind!r}, this command "
             f"writes {list(fields)}; use another --out directory"
         )
+
+
+def _check_sources(out: Path, header: Sequence[str], fields: Sequence[str]) -> None:
+    """When results.csv and this run differ only in SOURCE_FIELD, the method list is the cause
+    (a method from outside the package on one side only): say so, naming the methods there."""
+    ours = [f for f in fields if f != SOURCE_FIELD]
+    if [f for f in header if f != SOURCE_FIELD] not in (ours, unscored(ours)):
+        return
+    methods = ", ".join(read_meta(out).get("settings", {}).get("methods", [])) or "see meta.json"
+    if SOURCE_FIELD in header:
+        raise ResultsError(
+            f"{out / 'results.csv'}: holds a method from outside the package (column "
+            f"{SOURCE_FIELD}) and this run's --methods has none: to extend it, list the methods "
+            f"already there ({methods}); else use another --out directory"
+        )
+    raise ResultsError(
+        f"{out / 'results.csv'}: holds no method from outside the package (no column "
+        f"{SOURCE_FIELD}) and this run's --methods adds one: run it into another --out directory"
+    )
 
 
 def drop_partial_row(path: Path) -> bool:

@@ -37,6 +37,7 @@ import numpy as np
 from tqdm import tqdm
 
 from d3dwa_bullet.errors import ConfigError, ResultsError
+from d3dwa_bullet.evaluation.job import Job
 from d3dwa_bullet.evaluation.repeats import Key
 from d3dwa_bullet.evaluation.results import (
     RESULTS_FORMAT,
@@ -50,8 +51,7 @@ from d3dwa_bullet.io import atomic_write_bytes, read_text
 from d3dwa_bullet.method_specs import method_family
 from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
 
-if TYPE_CHECKING:  # annotations only: jobs.py imports this module
-    from d3dwa_bullet.evaluation.jobs import Job
+if TYPE_CHECKING:
     from d3dwa_bullet.world.model import World
 
 REUSED_KEY = "reused"

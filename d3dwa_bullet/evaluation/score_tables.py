@@ -21,7 +21,7 @@ from d3dwa_bullet.episode_metrics import SCORE_FORM
 from d3dwa_bullet.evaluation.page_width import WorldRow, world_table
 from d3dwa_bullet.evaluation.scores import UNSCORED_NOTE, is_scored
 from d3dwa_bullet.evaluation.seed_stats import Interval, iqm_interval, mean_interval
-from d3dwa_bullet.evaluation.seed_tables import Row, column_scores, condition_table
+from d3dwa_bullet.evaluation.seed_tables import Row, column_scores, condition_table, one_run_each
 from d3dwa_bullet.method_specs import method_label
 
 ROBOT = "score"
@@ -34,8 +34,9 @@ def _fmt(i: Interval, digits: int) -> str:
 
 def score_cell(per_world: list[list[float]], stat=mean_interval, digits: int = 2) -> str:
     """A table cell: ``stat`` (mean_interval or iqm_interval) of per-world lists of per-run
-    scores, as "value [low, high]"."""
-    return _fmt(stat(per_world), digits)
+    scores, as "value [low, high]"; the value alone with one run a world (no interval)."""
+    i = stat(per_world)
+    return f"{i.value:.{digits}f}" if one_run_each(per_world) else _fmt(i, digits)
 
 
 def _per_world(rows: Sequence[Row], column: str) -> list[list[float]]:

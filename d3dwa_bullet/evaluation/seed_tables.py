@@ -110,17 +110,32 @@ def _n_runs(rows: Sequence[Row]) -> tuple[int, int]:
     return len({r["policy_seed"] for r in rows if r["policy_seed"] is not None}), len(rows)
 
 
+def one_run_each(per_world: Sequence[Sequence[float]]) -> bool:
+    """Every world holds one run: the stratified bootstrap then resamples nothing and its
+    interval is the point itself, so a cell shows the value alone (never ``100 [100, 100]``)."""
+    return all(len(s) == 1 for s in per_world)
+
+
 def _rate(i: Interval) -> str:
     return f"{100 * i.value:.0f} [{100 * i.low:.0f}, {100 * i.high:.0f}]"
 
 
-def _time(i: Interval | None) -> str:
-    return "--" if i is None else f"{i.value:.1f} [{i.low:.1f}, {i.high:.1f}]"
+def rate_cell(per_world: Sequence[Sequence[float]]) -> str:
+    """Success in % over runs: "mean [low, high]", or the mean alone with one run a world."""
+    i = mean_interval(per_world)
+    return f"{100 * i.value:.0f}" if one_run_each(per_world) else _rate(i)
 
 
-def _time_interval(scores: list[list[float]]) -> Interval | None:
+def _time(scores: list[list[float]]) -> str:
+    """IQM time over runs [s] "value [low, high]" (the value alone with one run a world; "--"
+    without a success)."""
     scores = [s for s in scores if s]
-    return iqm_interval(scores) if scores else None
+    if not scores:
+        return "--"
+    i = iqm_interval(scores)
+    return (
+        f"{i.value:.1f}" if one_run_each(scores) else f"{i.value:.1f} [{i.low:.1f}, {i.high:.1f}]"
+    )
 
 
 def _runs_label(method: str, rows: Sequence[Row]) -> str:
@@ -165,14 +180,14 @@ def seed_tables(
             s_all.append(s)
             t_all.append(t)
             flag = mark(m, w) if mark else ""
-            s_cells.append((_rate(mean_interval([s])) + flag,))
-            t_cells.append((_time(_time_interval([t])) + flag,))
+            s_cells.append((rate_cell([s]) + flag,))
+            t_cells.append((_time([t]) + flag,))
         lead = (named[m][1], _runs_label(named[m][0], mine))
-        success.append(WorldRow(lead, s_cells, (_rate(mean_interval(s_all)),), m))
-        timing.append(WorldRow(lead, t_cells, (_time(_time_interval(t_all)),), m))
+        success.append(WorldRow(lead, s_cells, (rate_cell(s_all),), m))
+        timing.append(WorldRow(lead, t_cells, (_time(t_all),), m))
     table = partial(world_table, ("Method", "runs"), ("---", "---"), worlds, tail=("all",))
     return (
-        "### Success rate [%], 95 % interval over runs\n\n"
+        "### Success rate [%], 95 % interval over runs (none where a cell has one run)\n\n"
         + table(success)
         + "\n### Time to goal, IQM over runs [s], 95 % interval\n\n"
         + table(timing, lead_table=False)
@@ -322,7 +337,7 @@ def condition_table(
     cell from the per-world lists of them (default the mean [interval] in %). flag: the text
     after a row's group for (method, the group's worlds), e.g. how many are training worlds.
     Columns that do not fit the page's width go to a second table (``split_columns``)."""
-    cell = cell or (lambda per_world: _rate(mean_interval(per_world)))
+    cell = cell or rate_cell
     groups = [*layouts, "all layouts"] if len(layouts) > 1 else list(layouts)
     cells: dict[tuple[str, str, str], dict[str, list[Row]]] = defaultdict(lambda: defaultdict(list))
     for r in rows:

@@ -48,7 +48,7 @@ from tqdm import tqdm
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.evaluation.barn_tables import TERCILE_ORDER, tercile_group
-from d3dwa_bullet.evaluation.floors import FLOORS_NOTE, floor_records, floor_table
+from d3dwa_bullet.evaluation.floors import chance_sections
 from d3dwa_bullet.evaluation.jobs import Job, evaluate, noise_config_json
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.page_width import fit_prose, world_span
@@ -327,11 +327,7 @@ def sweep_markdown(
                                    groups, lambda r: r["layout"], flag)
         )  # fmt: skip
         parts.append(style_section(rows, settings.methods, settings.profiles, profile_of, flag))
-    floors = floor_table(floor_records(rows, settings.methods))
-    if floors:
-        parts.append(
-            f"\n### Against chance (every layout and condition)\n\n{FLOORS_NOTE}\n\n{floors}"
-        )
+    parts.append(chance_sections(rows, settings.methods, "###", " (every layout and condition)"))
     return fit_prose("".join(parts))
 
 

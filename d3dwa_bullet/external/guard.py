@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from d3dwa_bullet.errors import ExternalMethodError
-from d3dwa_bullet.external.resolve import ExternalMethod, _said
+from d3dwa_bullet.external.resolve import METHOD_FAULTS, ExternalMethod, _said
 from d3dwa_bullet.params import SimParams
 from d3dwa_bullet.planning.controller import Controller
 from d3dwa_bullet.planning.velocity_command import NO_PARAMETERS, PlannerInputs
@@ -73,7 +73,7 @@ class ExternalController(Controller):
         start = self.clock()
         try:
             out = fn(*args)
-        except Exception as err:  # the method's own code: whatever it raises is refused
+        except METHOD_FAULTS as err:  # the method's own code: whatever it raises or exits with
             raise ExternalMethodError(
                 f"method {self.name!r}: {what}() raised at step {self._step}: {_said(err)}"
             ) from err

@@ -11,8 +11,8 @@ Two kinds, told apart by the one call each has:
   it replaces the DWA, and the recovery layer wraps it as it wraps the DWA.
 
 A method is a class built with no arguments, named ``package.module:Name`` or registered under
-the entry point group :data:`ENTRY_POINT_GROUP`. Its class declares ``interface_version``
-(:data:`INTERFACE_VERSION`). It is given copies of its inputs, never the simulator; whatever
+the entry point group :data:`ENTRY_POINT_GROUP` (the naming rules: :mod:`d3dwa_bullet.method_names`).
+Its class declares ``interface_version`` (:data:`INTERFACE_VERSION`). It is given copies of its inputs, never the simulator; whatever
 it returns is checked (a finite index in its set, a finite command within the limits) and a
 method that raises or answers otherwise ends the run, refused in one line.
 
@@ -27,16 +27,13 @@ Pure: the standard library and numpy; the method's own module is imported only w
 
 from __future__ import annotations
 
-import re
-from typing import TYPE_CHECKING, Protocol, runtime_checkable
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from d3dwa_bullet.method_names import ENTRY_POINT_GROUP
 from d3dwa_bullet.planning.actions import ActionSet
 from d3dwa_bullet.planning.velocity_command import PlannerInputs
-
-if TYPE_CHECKING:
-    from importlib.metadata import EntryPoint
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -44,16 +41,10 @@ __all__ = [
     "ParameterChooser",
     "PlannerInputs",
     "VelocityPlanner",
-    "entry_points_named",
-    "is_import_path",
-    "is_model_file",
 ]
 
 #: The version of this interface; a method's class declares the one it implements.
 INTERFACE_VERSION = 1
-#: The entry point group an installed package registers its methods under (name = method).
-ENTRY_POINT_GROUP = "d3dwa_bullet.methods"
-_IMPORT_PATH = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*")
 
 
 @runtime_checkable
@@ -88,26 +79,3 @@ class VelocityPlanner(Protocol):
         """(v m/s, w rad/s), finite, |v| <= limits.v_max and |w| <= limits.w_max; the
         robot's accelerations limit how fast the command is reached."""
         ...
-
-
-#: A method named by a file: an ONNX policy with the contract ``d3dwa export`` writes.
-MODEL_SUFFIXES = (".onnx",)
-
-
-def is_model_file(name: str) -> bool:
-    """Whether name is a path to a model file a method runs (``policy.onnx``)."""
-    return name.lower().endswith(MODEL_SUFFIXES)
-
-
-def is_import_path(name: str) -> bool:
-    """Whether name is spelled ``package.module:Name``."""
-    return _IMPORT_PATH.fullmatch(name) is not None
-
-
-def entry_points_named() -> dict[str, EntryPoint]:
-    """The installed entry points of :data:`ENTRY_POINT_GROUP` by name (none loaded)."""
-    # start-up cost: reading installed packages' metadata happens only for a name that is
-    # not built in, never for the built-in methods
-    from importlib.metadata import entry_points
-
-    return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}

@@ -23,20 +23,26 @@ from pathlib import Path
 from typing import Any
 
 from d3dwa_bullet.errors import D3DWAError, ExternalMethodError
-from d3dwa_bullet.external.protocol import (
+from d3dwa_bullet.external.protocol import INTERFACE_VERSION
+from d3dwa_bullet.limits import MAX_DECISION_STEPS, is_decision_period
+from d3dwa_bullet.method_names import (
     ENTRY_POINT_GROUP,
-    INTERFACE_VERSION,
+    entry_point_clashes,
     entry_points_named,
     is_import_path,
     is_model_file,
 )
-from d3dwa_bullet.limits import MAX_DECISION_STEPS, is_decision_period
 from d3dwa_bullet.method_specs import HOLD_MARK, REFERENCE, is_builtin, method_family
 from d3dwa_bullet.params import OBSERVATION_KINDS
 from d3dwa_bullet.planning.actions import ActionSet
 
 #: The two kinds, by the call each implements.
 KINDS = {"choose": "chooser", "command": "velocity planner"}
+#: What a method's own code may end in and be refused for: any exception, and ``sys.exit``
+#: (SystemExit), which would otherwise end the command with the method's status and no line (a
+#: broken method read as a run that succeeded). Ctrl-C (KeyboardInterrupt) stays the user's
+#: (docs/design/cli-output.md#methods-from-outside-the-package).
+METHOD_FAULTS: tuple[type[BaseException], ...] = (Exception, SystemExit)
 
 
 @dataclass(frozen=True)
@@ -64,13 +70,15 @@ class ExternalMethod:
         """A new instance; ExternalMethodError if the constructor raises."""
         try:
             return self.cls()
-        except Exception as err:  # the method's own code: whatever it raises is refused
+        except METHOD_FAULTS as err:  # the method's own code: whatever it raises is refused
             raise ExternalMethodError(
                 f"method {self.name!r}: raised at construction: {_said(err)}"
             ) from err
 
 
 def _said(err: BaseException) -> str:
+    if isinstance(err, SystemExit):
+        return f"called sys.exit({err.code!r})"
     text = " ".join(str(err).split())
     return f"{type(err).__name__}: {text[:200]}" if text else type(err).__name__
 
@@ -93,10 +101,17 @@ def resolve(name: str) -> ExternalMethod:
                 f"method {name!r}: no such entry point in {ENTRY_POINT_GROUP} (and not "
                 "package.module:Name); see `d3dwa methods`"
             )
+        clash = entry_point_clashes().get(name)
+        if clash:
+            raise ExternalMethodError(
+                f"method {name!r}: {len(clash)} installed packages register this name in "
+                f"{ENTRY_POINT_GROUP} ({'; '.join(clash)}): uninstall all but one, or name the "
+                "class as package.module:Name"
+            )
         ep = points[name]
         try:
             cls = ep.load()
-        except Exception as err:  # the method's own module: whatever it raises is refused
+        except METHOD_FAULTS as err:  # the method's own module: whatever it raises is refused
             raise ExternalMethodError(
                 f"method {name!r}: entry point {ep.value!r} cannot be loaded: {_said(err)}"
             ) from err
@@ -130,9 +145,10 @@ def _import_class(name: str) -> type:
     module_name, _, attr = name.partition(":")
     try:
         module = importlib.import_module(module_name)
-    except Exception as err:  # a missing module, or one whose import raises
+    except METHOD_FAULTS as err:  # a missing module, or one whose import raises or exits
         raise ExternalMethodError(
             f"method {name!r}: module {module_name!r} cannot be imported: {_said(err)}"
+            f"{_path_hint(module_name, err)}"
         ) from err
     obj: Any = module
     for part in attr.split("."):
@@ -140,6 +156,19 @@ def _import_class(name: str) -> type:
             raise ExternalMethodError(f"method {name!r}: module {module_name!r} has no {attr!r}")
         obj = getattr(obj, part)
     return obj
+
+
+def _path_hint(module_name: str, err: BaseException) -> str:
+    """Where Python looked, when the method's own module (or its package) is not found: the
+    usual cause is running from another folder than the one holding it."""
+    missing = getattr(err, "name", None) if isinstance(err, ModuleNotFoundError) else None
+    if not missing or not (module_name == missing or module_name.startswith(missing + ".")):
+        return ""  # found, but it raised, or a module it imports is missing: said as is
+    top = module_name.partition(".")[0]
+    return (
+        f" (Python looks for {top!r} on its import path: run from the folder that holds it, "
+        "add that folder to PYTHONPATH, or pip install its package)"
+    )
 
 
 def _origin(spec: str, dist: Any) -> str:

@@ -19,7 +19,7 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from d3dwa_bullet.errors import UnknownNameError, WorldFormatError
+from d3dwa_bullet.errors import UnknownNameError, WorldFormatError, did_you_mean
 from d3dwa_bullet.resources import worlds_dir
 from d3dwa_bullet.world.barn import barn_world_from_name
 from d3dwa_bullet.world.barn_style import barn_style_world_from_name
@@ -136,6 +136,7 @@ def load_world(name_or_path: str | Path) -> World:
     if barn_style is not None:
         return barn_style
     raise UnknownNameError(
-        f"unknown world {text!r}: choose one of {', '.join(paths)}, a BARN world such as "
-        "BARN-17, a generated layout such as R2-style-s17 or BARN-style-s2147483648, or a path to a world file"
+        f"unknown world {text!r}: {did_you_mean(text, paths)}choose one of {', '.join(paths)}, a BARN "
+        "world such as BARN-17, a generated layout such as R2-style-s17 or BARN-style-s2147483648, or a "
+        "path to a world file"
     )

@@ -13,6 +13,7 @@ from d3dwa_bullet.evaluation.paired import paired_scores
 from d3dwa_bullet.evaluation.readings import reading_of
 from d3dwa_bullet.world.barn import barn_index
 from d3dwa_bullet.world.barn_difficulty import barn_tercile_group
+from tests.support.cli import refused
 from tests.support.results_logs import write_results
 
 
@@ -152,8 +153,8 @@ def test_an_eval_of_barn_worlds_is_compared_per_difficulty_tercile(tmp_path, cap
     assert main(["compare", str(out), "--methods", "dwa3,dwa1"]) == 0
     printed = capsys.readouterr().out
     groups = {barn_tercile_group(barn_index(w)) for w in worlds}
-    assert all(f"| {g} (real) |" in printed for g in groups)
-    assert "| custom (real) |" not in printed
+    assert all(f"| {g}, noise real |" in printed for g in groups)
+    assert "| custom, noise real |" not in printed
 
 
 def sweep_dir(path, layouts):
@@ -179,14 +180,14 @@ def test_a_sweep_of_several_styles_is_read_per_style_then_pooled(tmp_path, capsy
     assert main(["compare", str(out), "--methods", "dwa3,dwa1", "--json"]) == 0
     records = json.loads(capsys.readouterr().out)["groups"]
     assert [(r["group"], r["tasks"]) for r in records] == [
-        ("shipped (real)", 1), ("R1-style (real)", 3), ("R2-style (real)", 3),
-        ("generated (real)", 6), ("all", 7),
+        ("shipped, noise real", 1), ("R1-style, noise real", 3), ("R2-style, noise real", 3),
+        ("generated, noise real", 6), ("all", 7),
     ]  # fmt: skip
     assert records[1]["readings"]["success"]["layouts"] == 3
     one = sweep_dir(tmp_path / "one", [(f"R1-style-s{k}", "generated") for k in (1, 2, 3)])
     assert main(["compare", str(one), "--methods", "dwa3,dwa1", "--json"]) == 0
     groups = [r["group"] for r in json.loads(capsys.readouterr().out)["groups"]]
-    assert groups == ["generated (real)", "all"]  # one style: its stratum is the pool
+    assert groups == ["generated, noise real", "all"]  # one style: its stratum is the pool
 
 
 def test_a_sweep_of_barn_and_generated_layouts_pools_barn_beside_generated(tmp_path, capsys):
@@ -195,9 +196,29 @@ def test_a_sweep_of_barn_and_generated_layouts_pools_barn_beside_generated(tmp_p
     out = sweep_dir(tmp_path / "mixed", barn + generated)
     assert main(["compare", str(out), "--methods", "dwa3,dwa1", "--json"]) == 0
     records = {r["group"]: r for r in json.loads(capsys.readouterr().out)["groups"]}
-    assert records["barn (real)"]["tasks"] == 3 and records["generated (real)"]["tasks"] == 2
-    assert records["barn (real)"]["readings"]["success"]["layouts"] == 3
+    assert (
+        records["barn, noise real"]["tasks"] == 3 and records["generated, noise real"]["tasks"] == 2
+    )
+    assert records["barn, noise real"]["readings"]["success"]["layouts"] == 3
     only = sweep_dir(tmp_path / "barn", barn)  # BARN alone: its pool is "all layouts"
     assert main(["compare", str(only), "--methods", "dwa3,dwa1", "--json"]) == 0
     groups = [r["group"] for r in json.loads(capsys.readouterr().out)["groups"]]
-    assert "barn (real)" not in groups and groups[-1] == "all"
+    assert "barn, noise real" not in groups and groups[-1] == "all"
+
+
+def test_a_duplicated_row_is_refused_by_compare_and_report_never_counted_twice(tmp_path, capsys):
+    out = results_dir(tmp_path / "dup", ["L0", "L1", "L2"])
+    lines = (out / "results.csv").read_text().splitlines(keepends=True)
+    (out / "results.csv").write_text("".join([*lines, lines[3]]))
+    said = f"line {len(lines) + 1} repeats the episode of line 4"
+    assert said in refused(capsys, "compare", out, "--methods", "dwa3,dwa1")
+    assert said in refused(capsys, "report", out)
+
+
+def test_against_on_one_shared_layout_reads_inconclusive_and_says_why(tmp_path, capsys):
+    a = results_dir(tmp_path / "a", ["L0"])
+    b = results_dir(tmp_path / "b", ["L0"])
+    assert main(["compare", str(a), "--against", str(b), "--methods", "dwa3,dwa3"]) == 0
+    printed = capsys.readouterr().out
+    words = " ".join(printed.split())
+    assert "inconclusive" in words and "share only one layout (L0)" in words

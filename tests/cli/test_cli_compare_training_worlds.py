@@ -71,7 +71,7 @@ def test_the_readings_flag_the_group_with_a_training_world_and_not_the_challenge
     printed = capsys.readouterr().out
     assert all(len(line) <= PAGE_WIDTH for line in printed.splitlines())
     assert barn_tercile(CHALLENGE) != barn_tercile(TRAINED)
-    trained, challenge = (f"barn-{barn_tercile(i)} (real)" for i in (TRAINED, CHALLENGE))
+    trained, challenge = (f"barn-{barn_tercile(i)}, noise real" for i in (TRAINED, CHALLENGE))
     assert _readings_rows(printed) == {
         f"{trained} {MARK}": "1 of 2",
         challenge: "",
@@ -89,7 +89,7 @@ def test_without_barn_training_no_readings_row_is_flagged(tmp_path, capsys):
     assert main(["compare", str(out), "--methods", "d3dwa,dwa3"]) == 0
     printed = capsys.readouterr().out
     assert MARK not in printed and "trained on" not in printed
-    groups = {f"barn-{barn_tercile(i)} (real)" for i in (TRAINED, CHALLENGE)} | {"all"}
+    groups = {f"barn-{barn_tercile(i)}, noise real" for i in (TRAINED, CHALLENGE)} | {"all"}
     assert _readings_rows(printed) == dict.fromkeys(groups, "")
 
 
@@ -101,12 +101,12 @@ def test_when_both_sides_trained_each_count_says_whose_worlds(tmp_path, monkeypa
     assert main(argv) == 0
     printed = capsys.readouterr().out
     assert all(len(line) <= PAGE_WIDTH for line in printed.splitlines())
-    trained = f"barn-{barn_tercile(TRAINED)} (real)"
+    trained = f"barn-{barn_tercile(TRAINED)}, noise real"
     both = f"{MARK} (A: 1 of 2 trained on) {MARK} (B: 1 of 2 trained on)"
     assert f"| {trained} {both} |" in printed  # the P(A > B) table
     assert _readings_rows(printed) == {
         f"{trained} {MARK}": "A: 1 of 2, B: 1 of 2",
-        f"barn-{barn_tercile(CHALLENGE)} (real)": "",
+        f"barn-{barn_tercile(CHALLENGE)}, noise real": "",
         f"all {MARK}": "A: 1 of 3, B: 1 of 3",
     }
     assert main([*argv, "--json"]) == 0

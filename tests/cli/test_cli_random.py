@@ -113,10 +113,12 @@ def test_compare_on_one_layout_says_why_there_is_no_paired_test(evaluated, capsy
     assert run_main("compare", evaluated, "--methods", "random,dwa1") == 0
     out = capsys.readouterr().out
     assert "### Success rate [%]" in out and "| Random (uniform over 100 actions) |" in out
-    assert out.strip().splitlines()[-1] == (
+    assert out.strip().splitlines()[-3:] == [
         "No paired test: methods 'random' and 'dwa1' share only one layout (tiny); a test "
-        "paired by layout needs 2 or more."
-    )
+        "paired by layout needs 2 or more.",
+        "",
+        "Reading: inconclusive (one shared layout cannot decide; see above).",
+    ]
 
 
 def test_sweep_takes_random(one_second_world, tmp_path, capsys):

@@ -79,7 +79,7 @@ def test_compare_prints_the_probability_of_improvement(setup, tmp_path, capsys, 
     capsys.readouterr()
     assert main(["compare", str(out), "--methods", "d3dwa,dwa3", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
-    assert [g["group"] for g in report["groups"]] == ["custom (none)", "all"]
+    assert [g["group"] for g in report["groups"]] == ["custom, noise none", "all"]
     # every run ties with every run: P = 0.5 exactly, and so is its interval
     assert all((g["p"], g["low"], g["high"]) == (0.5, 0.5, 0.5) for g in report["groups"])
     # two training seeds against DWA III's one run: its noise-free episode ran once per layout

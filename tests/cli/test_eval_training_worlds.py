@@ -90,9 +90,9 @@ def test_compare_names_the_training_worlds_and_flags_their_groups(
     printed = capsys.readouterr().out
     words = " ".join(printed.split())  # prose lines split to the page's width
     assert LINE in words and f"one of them (BARN-{IDS[0]})" in words
-    groups = [ln.split("|")[1].strip() for ln in printed.splitlines() if "(none)" in ln]
-    assert f"barn-{barn_tercile(IDS[0])} (none) {MARK} (1 of 1 trained on)" in groups
-    assert f"barn-{barn_tercile(0)} (none)" in groups  # the challenge world's group: no mark
+    groups = [ln.split("|")[1].strip() for ln in printed.splitlines() if "noise none" in ln]
+    assert f"barn-{barn_tercile(IDS[0])}, noise none {MARK} (1 of 1 trained on)" in groups
+    assert f"barn-{barn_tercile(0)}, noise none" in groups  # the challenge world's group: no mark
     assert main([*argv, "--json"]) == 0
     record = json.loads(capsys.readouterr().out)["barn_training"]
     assert record == {"d3dwa": {"split": "train", "ids": list(IDS)}}

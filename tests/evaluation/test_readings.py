@@ -28,6 +28,7 @@ from d3dwa_bullet.evaluation.readings import (
     reading_of,
     reading_text,
     readings_by_group,
+    readings_table,
 )
 
 RNG = np.random.default_rng(55)
@@ -173,3 +174,19 @@ def test_readings_pair_by_layout_on_the_score_and_say_when_rows_lack_it() -> Non
     lacking = readings_by_group(old, "a", "b", {}, margins)["all"]
     assert lacking["score"]["why"] == NO_SCORE and reading_text(lacking["score_barn"]) == NO_SCORE
     assert lacking["success"]["reading"] == out["all"]["success"]["reading"]
+
+
+def test_an_interval_stays_inside_what_a_difference_can_be_or_is_none_with_why() -> None:
+    two = read_differences([-1.0, 0.0], 0.03) | {"metric": "success"}  # t interval: [-6.9, +5.9]
+    assert two["low"] is None and two["high"] is None and two["difference"] == -0.5
+    assert two["why"].startswith("no interval: on 2 layouts") and two["reading"] == "inconclusive"
+    table = readings_table({"all": {"success": two}})
+    assert "-50.0 (no interval on 2 layouts)" in table and "-685" not in table
+    wide = read_differences([1.0, 1.0, 0.0, 1.0], 0.03)  # t interval's top beyond +1
+    t_high = stats.ttest_1samp([1.0, 1.0, 0.0, 1.0], 0.0).confidence_interval(0.95).high
+    assert t_high > 1.0 and wide["high"] == 1.0 and -1.0 < wide["low"] < wide["difference"]
+
+
+def test_identical_methods_read_equivalent_with_the_no_spread_note() -> None:
+    same = read_differences([0.0] * 5, 0.03) | {"metric": "success"}
+    assert reading_text(same) == "equivalent within ±3 points (no spread)"

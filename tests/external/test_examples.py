@@ -51,7 +51,7 @@ def test_eval_prints_both_rows_and_the_reference(capsys, ftg_path, one_second_wo
     )  # fmt: skip
     assert code == 0, err
     assert "| DWA III (2,1,1) | fixed" in out and f"| {NAME} | external" in out
-    assert "`dwa3` (no action set: a reference, not a floor)" in out
+    assert "## Against the reference" in out and f"| {NAME} | `dwa3` |" in out
 
 
 @pytest.mark.slow

@@ -17,8 +17,7 @@ HERE = "tests.support.external_methods"
 
 def _entry_points(monkeypatch, **points: str) -> None:
     found = {n: EntryPoint(n, v, protocol.ENTRY_POINT_GROUP) for n, v in points.items()}
-    for where in ("protocol", "resolve"):
-        monkeypatch.setattr(f"d3dwa_bullet.external.{where}.entry_points_named", lambda: found)
+    monkeypatch.setattr("d3dwa_bullet.external.resolve.entry_points_named", lambda: found)
     monkeypatch.setattr("d3dwa_bullet.method_specs.entry_points_named", lambda: found)
     monkeypatch.setattr("d3dwa_bullet.method_specs._EXTERNAL_SEEN", set())
 
@@ -49,6 +48,10 @@ def test_run_names_the_source(capsys, one_second_world):
         ("nowhere_pkg.mod:Thing", "module 'nowhere_pkg.mod' cannot be imported"),
         (f"{HERE}:RaisesAtConstruction", "raised at construction"),
         (f"{HERE}:TooFast", "beyond the robot's limits"),
+        ("tests.support.exits_on_import:Planner", "cannot be imported: called sys.exit(0)"),
+        (f"{HERE}:ExitsAtConstruction", "raised at construction: called sys.exit(0)"),
+        (f"{HERE}:ExitsSevenAtConstruction", "raised at construction: called sys.exit(7)"),
+        (f"{HERE}:ExitsOnFifthCommand", "command() raised at step 4: called sys.exit(0)"),
     ],
 )
 def test_run_refuses_a_method_that_cannot_be_trusted(capsys, one_second_world, method, said):
@@ -102,3 +105,19 @@ def test_methods_says_which_learned_method_ships_a_policy(capsys, monkeypatch, t
     assert "policy" not in rows["dwa3"]  # a fixed method needs none
     code, out, _ = run(capsys, "methods")
     assert "D3DWA (BARN-trained)  [built-in; no shipped policy: train one" in out
+
+
+def test_extending_a_directory_names_the_method_list_as_the_cause(
+    capsys, one_second_world, tmp_path
+):
+    out = tmp_path / "res"
+    base = ("eval", "--worlds", one_second_world, "--workers", 1, "--out", out)
+    code, _, err = run(capsys, *base, "--methods", f"dwa3,{HERE}:Straight")
+    assert code == 0, err
+    line = refused(capsys, *base, "--methods", "dwa3,dwa1")
+    assert "holds a method from outside the package" in line and "were written by" not in line
+    assert f"list the methods already there (dwa3, {HERE}:Straight)" in line
+    plain = tmp_path / "plain"
+    assert run(capsys, *base[:-1], plain, "--methods", "dwa3")[0] == 0
+    line = refused(capsys, *base[:-1], plain, "--methods", f"dwa3,{HERE}:Straight")
+    assert "holds no method from outside the package" in line and "another --out" in line

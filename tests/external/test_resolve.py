@@ -81,7 +81,6 @@ def test_raising_at_construction_is_refused():
 
 def _entry_points(monkeypatch, **points: str) -> None:
     found = {n: EntryPoint(n, v, protocol.ENTRY_POINT_GROUP) for n, v in points.items()}
-    monkeypatch.setattr(protocol, "entry_points_named", lambda: found)
     monkeypatch.setattr("d3dwa_bullet.method_specs.entry_points_named", lambda: found)
     monkeypatch.setattr("d3dwa_bullet.external.resolve.entry_points_named", lambda: found)
     monkeypatch.setattr("d3dwa_bullet.method_specs._EXTERNAL_SEEN", set())
@@ -110,3 +109,48 @@ def test_the_example_resolves_from_its_folder(monkeypatch):
     assert method.kind == "velocity planner"
     sys.modules.pop("follow_the_gap.planner", None)
     sys.modules.pop("follow_the_gap", None)
+
+
+def test_two_packages_registering_one_name_are_refused_never_the_last_taken(monkeypatch):
+    found = [
+        EntryPoint("twice", f"{HERE}:Straight", protocol.ENTRY_POINT_GROUP),
+        EntryPoint("twice", f"{HERE}:Zero", protocol.ENTRY_POINT_GROUP),
+    ]
+    monkeypatch.setattr("d3dwa_bullet.method_names.installed_entry_points", lambda: found)
+    monkeypatch.setattr("d3dwa_bullet.method_specs._EXTERNAL_SEEN", set())
+    assert check_method("twice") == "twice"  # a name, known: refused when it is loaded
+    with pytest.raises(ExternalMethodError, match="2 installed packages register") as err:
+        resolve("twice")
+    said = str(err.value)
+    assert f"{HERE}:Straight" in said and f"{HERE}:Zero" in said and "\n" not in said
+    listed = [r for r in installed_methods() if r["name"] == "twice"]
+    assert [r["kind"] for r in listed] == ["refused"]
+
+
+@pytest.mark.parametrize(
+    ("name", "said"),
+    [
+        ("tests.support.exits_on_import:Planner", r"cannot be imported: called sys.exit\(0\)"),
+        (f"{HERE}:ExitsAtConstruction", r"raised at construction: called sys.exit\(0\)"),
+        (f"{HERE}:ExitsSevenAtConstruction", r"raised at construction: called sys.exit\(7\)"),
+    ],
+)
+def test_a_method_that_calls_sys_exit_is_refused_not_obeyed(name, said):
+    with pytest.raises(ExternalMethodError, match=said) as err:
+        resolve(name).build()
+    assert name in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_module_off_the_import_path_gets_the_hint_in_one_line():
+    with pytest.raises(ExternalMethodError) as err:
+        resolve("nowhere_pkg.mod:Thing")
+    said = str(err.value)
+    assert "ModuleNotFoundError" in said and "\n" not in said
+    assert "'nowhere_pkg' on its import path" in said and "PYTHONPATH" in said
+    assert "pip install" in said
+
+
+def test_a_module_found_whose_own_import_fails_gets_no_path_hint():
+    with pytest.raises(ExternalMethodError) as err:
+        resolve("tests.support.exits_on_import:Planner")
+    assert "PYTHONPATH" not in str(err.value)

@@ -114,3 +114,14 @@ def test_the_same_method_within_its_budget_drives_as_it_runs(capsys, serve, manu
         np.asarray(sim.received[:20]), np.column_stack((episode.log["v_cmd"], episode.log["w_cmd"]))
     )
     assert sim.received[20:] == [(0.0, 0.0)]  # only the stop at the end
+
+
+def test_a_planner_that_exits_mid_run_stops_the_robot_and_is_refused(capsys, serve):
+    sim, address = serve(load_world("R1"), mode="lockstep")
+    line = refused(
+        capsys, "drive", "--kachaka", address, "--goal", "3,0",
+        "--method", "tests.support.external_methods:ExitsOnTenthCommand", *PATIENT,
+    )  # fmt: skip
+    assert "ExitsOnTenthCommand': command() raised at step 9: called sys.exit(0)" in line
+    assert "robot was stopped" in line
+    assert len(sim.received) >= 10 and sim.received[-1] == (0.0, 0.0)

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import sys
 import time
 
 import numpy as np
@@ -242,3 +243,35 @@ class NoTime(Straight):
 
 class TextBudget(Straight):
     budget_s = "0.1"
+
+
+class ExitsAtConstruction(Straight):
+    """Its ``__init__`` calls ``sys.exit(code)``: a careless method's way to say it cannot run."""
+
+    code = 0
+
+    def __init__(self) -> None:
+        sys.exit(self.code)
+
+
+class ExitsSevenAtConstruction(ExitsAtConstruction):
+    code = 7
+
+
+class ExitsOnTenthCommand(Straight):
+    """Drives straight on, then calls ``sys.exit(0)`` in its ``at``-th ``command()``."""
+
+    at = 10
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def command(self, inputs):
+        self.calls += 1
+        if self.calls == self.at:
+            sys.exit(0)
+        return super().command(inputs)
+
+
+class ExitsOnFifthCommand(ExitsOnTenthCommand):
+    at = 5

@@ -31,13 +31,13 @@ VALIDATION_WORLDS = (
 )
 
 
-def run(policy: str | Path, method: str = "d3dwa", workers: int = 0) -> dict:
+def run(policy: str | Path, method: str = "d3dwa", workers: int | None = None) -> dict:
     """Successes of one policy directory on the 25 validation cases."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "validation"
         argv = ["eval", "--methods", method, "--policy", str(policy), "--worlds",
                 ",".join(VALIDATION_WORLDS), "--seeds", "1", "--out", str(out),
-                "--workers", str(workers), "--json"]  # fmt: skip
+                "--json", *(["--workers", str(workers)] if workers is not None else [])]  # fmt: skip
         with contextlib.redirect_stdout(io.StringIO()):  # the rows, as JSON: not ours to print
             code = d3dwa(argv)
         if code != 0:
@@ -57,7 +57,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap = ToolParser(description=__doc__.splitlines()[0])
     ap.add_argument("policies", nargs="+", help="policy directories (weights.pt + meta.json)")
     ap.add_argument("--method", default="d3dwa", help="the method the policies are of")
-    ap.add_argument("--workers", type=int, default=0, help="local processes (0: all cores)")
+    ap.add_argument("--workers", type=int, help="local processes (default: all cores)")
     ap.add_argument("--json", action="store_true", help="one JSON object per policy")
     args = ap.parse_args(argv)
     for policy in args.policies:

@@ -12,7 +12,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import fields
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from d3dwa_bullet.errors import ConfigError, ProfileError
 from d3dwa_bullet.learning.agents.d3qn import D3QNConfig
@@ -33,8 +33,10 @@ from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
 from d3dwa_bullet.world.registry import world_names
 from randomization.profiles import load_profile
 
-if TYPE_CHECKING:  # the config imports these checks
-    from d3dwa_bullet.learning.training.config import TrainConfig
+#: What the whole-config checks take: a ``TrainConfig`` (its fields read by name). This module
+#: owns the checks and config.py owns the class, so the checks never name the class's module
+#: (config.py imports this one; an arrow back would close a circle).
+TrainConfigLike = Any
 
 CURRICULA = ("uniform", "adaptive")
 KEEP = ("best", "final")
@@ -55,7 +57,7 @@ def as_tuple(value: Any, name: str, kind: type = str) -> tuple:
         ) from err
 
 
-def check_fields(config: TrainConfig) -> None:
+def check_fields(config: TrainConfigLike) -> None:
     """ConfigError naming the first field of ``config`` that is out of range, or a profile,
     world or weight list that does not hold (its values already normalised)."""
     checks: list[tuple[str, bool, str]] = [
@@ -131,7 +133,7 @@ def check_fields(config: TrainConfig) -> None:
     _check_profile("eval_noise", config.eval_noise)
 
 
-def check_barn(config: TrainConfig) -> None:
+def check_barn(config: TrainConfigLike) -> None:
     """ConfigError unless ``barn_split`` is 'none' or 'train' and ``barn_worlds`` is within
     the split's size (the challenge split is evaluation only)."""
     if config.barn_split not in BARN_TRAIN_SPLITS:
@@ -204,7 +206,7 @@ def check_scalar_types(cls: type, data: Mapping[str, Any], source: str, prefix: 
             raise ConfigError(f"{source}: field '{prefix}{f.name}' must be {kind}, got {value!r}")
 
 
-def check_run_limits(config: TrainConfig) -> None:
+def check_run_limits(config: TrainConfigLike) -> None:
     """ConfigError when this machine cannot run ``config``: more worker processes
     (``n_envs``) than :func:`d3dwa_bullet.limits.max_processes`, a replay buffer over
     the memory bound, or more than ``MAX_TOTAL_STEPS`` steps. Checked when a run starts, before any process or buffer exists, not
@@ -215,7 +217,7 @@ def check_run_limits(config: TrainConfig) -> None:
         check_replay_memory(config.agent.buffer_size, len(config.obs_layout), "agent.buffer_size")
 
 
-def check_selection_rule(config: TrainConfig) -> None:
+def check_selection_rule(config: TrainConfigLike) -> None:
     """ConfigError unless the config's ``keep: best`` selects on training material that
     no results table reports (see ``TrainConfig.eval_worlds``). Checked when a run starts,
     not when a config loads: the configs shipped beside earlier policies stay readable."""
