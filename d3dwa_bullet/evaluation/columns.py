@@ -1,4 +1,5 @@
-"""How each typed column of results.csv is read, and the one track a directory holds.
+"""How each typed column of results.csv is read, the one track a directory holds, and the
+columns a run adds beside CSV_FIELDS (recovery, backend, global plan, method source).
 
 A NaN or inf where a table averages, or an outcome no table counts, is refused, not counted
 (``TYPED_COLUMNS``); so is a hand-edited ``recovery`` column that mixes tracks or names no
@@ -80,3 +81,42 @@ def check_one_track(path: Path, rows: Sequence[Mapping[str, Any]], column: str) 
                 f"{path}: line {line}: column {column!r} is {shown} but line {first[0]} is "
                 f"{first[1]!r}; one results directory holds one track, never pooled"
             )
+
+
+RECOVERY_FIELD = "recovery"
+"""The column a run with a recovery layer adds (its ``--recovery`` name in every row); a
+paper-track directory has no such column, so its files keep the paper track's bytes, and
+its rows read as recovery "none"."""
+BACKEND_FIELD = "backend"
+"""The column a run on another simulator backend than PyBullet adds (its ``--backend`` name in
+every row); a PyBullet directory has no such column, so its files keep their bytes."""
+SOURCE_FIELD = "method_source"
+"""The column a run with a method from outside the package adds: where it came from
+(``module:Name (distribution version)``, ``module:Name in FILE (sha256 HEX)`` or ``FILE (sha256
+HEX)`` for an ONNX file), empty for a built-in method."""
+
+
+GLOBAL_PLAN_FIELD = "global_plan"
+"""The column a run with a global plan adds (its ``--global-plan`` name in every row), and its
+meta.json setting; absent from a run without one (docs/design/global-plan.md)."""
+
+
+def with_recovery(fields: Sequence[str], recovery: str) -> tuple[str, ...]:
+    """The CSV columns of a run: fields, plus RECOVERY_FIELD when a recovery layer runs."""
+    return tuple(fields) if recovery == "none" else (*fields, RECOVERY_FIELD)
+
+
+def with_global_plan(fields: Sequence[str], global_plan: str) -> tuple[str, ...]:
+    """The CSV columns of a run: fields, plus GLOBAL_PLAN_FIELD when a global plan runs."""
+    return tuple(fields) if global_plan == "none" else (*fields, GLOBAL_PLAN_FIELD)
+
+
+def with_backend(fields: Sequence[str], backend: str) -> tuple[str, ...]:
+    """The CSV columns of a run: fields, plus BACKEND_FIELD when it is not PyBullet."""
+    return tuple(fields) if backend == "pybullet" else (*fields, BACKEND_FIELD)
+
+
+def with_sources(fields: Sequence[str], external: bool) -> tuple[str, ...]:
+    """The CSV columns of a run: fields, plus SOURCE_FIELD when a method from outside the
+    package runs (``external``)."""
+    return (*fields, SOURCE_FIELD) if external and SOURCE_FIELD not in fields else tuple(fields)

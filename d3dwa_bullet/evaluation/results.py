@@ -43,7 +43,13 @@ import numpy as np
 
 from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ResultsError
-from d3dwa_bullet.evaluation.columns import TYPED_COLUMNS, check_one_track
+from d3dwa_bullet.evaluation.columns import (
+    GLOBAL_PLAN_FIELD,
+    RECOVERY_FIELD,
+    SOURCE_FIELD,
+    TYPED_COLUMNS,
+    check_one_track,
+)
 from d3dwa_bullet.evaluation.repeats import Key, kept_keys
 from d3dwa_bullet.io import AppendFile, atomic_write_bytes, atomic_write_text, read_text
 from d3dwa_bullet.limits import MAX_RUN_META_BYTES
@@ -73,24 +79,10 @@ CSV_FIELDS = (
     "steps",
     *SCORE_FIELDS,
 )
-RECOVERY_FIELD = "recovery"
-"""The column a run with a recovery layer adds (its ``--recovery`` name in every row); a
-paper-track directory has no such column, so its files keep the paper track's bytes, and
-its rows read as recovery "none"."""
-BACKEND_FIELD = "backend"
-"""The column a run on another simulator backend than PyBullet adds (its ``--backend`` name in
-every row); a PyBullet directory has no such column, so its files keep their bytes."""
-SOURCE_FIELD = "method_source"
-"""The column a run with a method from outside the package adds: where it came from
-(``module:Name (distribution version)``, ``module:Name in FILE (sha256 HEX)`` or ``FILE (sha256
-HEX)`` for an ONNX file), empty for a built-in method."""
 DERIVED_PAGES = ("table.md", "sweep.md", "report.md")
 """Pages computed from results.csv; removed while a run is incomplete."""
 
 KEY_FIELDS = ("world", "method", "policy_seed", "seed", "noise")
-GLOBAL_PLAN_FIELD = "global_plan"
-"""The column a run with a global plan adds (its ``--global-plan`` name in every row), and its
-meta.json setting; absent from a run without one (docs/design/global-plan.md)."""
 EPISODE_SETTINGS = {
     "time_limit": "--time-limit", "policy": "--policy", "recovery": "--recovery",
     GLOBAL_PLAN_FIELD: "--global-plan",
@@ -99,36 +91,15 @@ EPISODE_SETTINGS = {
 that sets them: one directory holds one value of each."""
 
 
-def with_recovery(fields: Sequence[str], recovery: str) -> tuple[str, ...]:
-    """The CSV columns of a run: fields, plus RECOVERY_FIELD when a recovery layer runs."""
-    return tuple(fields) if recovery == "none" else (*fields, RECOVERY_FIELD)
-
-
-def with_global_plan(fields: Sequence[str], global_plan: str) -> tuple[str, ...]:
-    """The CSV columns of a run: fields, plus GLOBAL_PLAN_FIELD when a global plan runs."""
-    return tuple(fields) if global_plan == "none" else (*fields, GLOBAL_PLAN_FIELD)
-
-
 def unscored(fields: Sequence[str]) -> list[str]:
     """The columns a run of ``fields`` wrote before the score (UNSCORED_FORMAT)."""
     return [f for f in fields if f not in SCORE_FIELDS]
-
-
-def with_backend(fields: Sequence[str], backend: str) -> tuple[str, ...]:
-    """The CSV columns of a run: fields, plus BACKEND_FIELD when it is not PyBullet."""
-    return tuple(fields) if backend == "pybullet" else (*fields, BACKEND_FIELD)
 
 
 def backend_of(out: Path, meta: Mapping[str, Any] | None = None) -> str:
     """The --backend a results directory's episodes ran on ("pybullet" when meta.json names none)."""
     meta = read_meta(out) if meta is None else meta
     return str(meta.get("settings", {}).get("backend", "pybullet"))
-
-
-def with_sources(fields: Sequence[str], external: bool) -> tuple[str, ...]:
-    """The CSV columns of a run: fields, plus SOURCE_FIELD when a method from outside the
-    package runs (``external``)."""
-    return (*fields, SOURCE_FIELD) if external and SOURCE_FIELD not in fields else tuple(fields)
 
 
 def recovery_of(out: Path, meta: Mapping[str, Any] | None = None) -> str:

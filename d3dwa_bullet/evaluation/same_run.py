@@ -17,18 +17,20 @@ from typing import Any
 
 from d3dwa_bullet.episode_metrics import SCORE_FORM
 from d3dwa_bullet.errors import ResultsError
-from d3dwa_bullet.evaluation.repeats import Key
-from d3dwa_bullet.evaluation.results import (
-    EPISODE_SETTINGS,
+from d3dwa_bullet.evaluation.columns import (
     GLOBAL_PLAN_FIELD,
-    check_results_dir,
-    read_meta,
-    read_results,
-    row_key,
     with_backend,
     with_global_plan,
     with_recovery,
     with_sources,
+)
+from d3dwa_bullet.evaluation.repeats import Key
+from d3dwa_bullet.evaluation.results import (
+    EPISODE_SETTINGS,
+    check_results_dir,
+    read_meta,
+    read_results,
+    row_key,
 )
 from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.method_specs import method_family

@@ -12,8 +12,9 @@ import pytest
 import yaml
 
 from d3dwa_bullet.errors import ResultsError
+from d3dwa_bullet.evaluation.columns import RECOVERY_FIELD
 from d3dwa_bullet.evaluation.report import policy_notes
-from d3dwa_bullet.evaluation.results import CSV_FIELDS, RECOVERY_FIELD, read_results
+from d3dwa_bullet.evaluation.results import CSV_FIELDS, read_results
 from tests.conftest import ONE_SECOND_WORLD
 from tests.evaluation.test_results_rows import GOOD
 from tests.support.cli import refused, run

@@ -12,11 +12,11 @@ import pytest
 from scipy import stats
 
 from d3dwa_bullet.episode_config import EpisodeConfig
+from d3dwa_bullet.evaluation.columns import with_recovery
 from d3dwa_bullet.evaluation.results import (
     CSV_FIELDS,
     appending_rows,
     row_key,
-    with_recovery,
     write_meta,
 )
 from d3dwa_bullet.learning.training.config import TrainConfig
