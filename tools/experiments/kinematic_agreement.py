@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
-import json
 import shutil
 from collections.abc import Sequence
 from pathlib import Path
@@ -27,11 +26,13 @@ from pathlib import Path
 from scipy import stats
 
 from d3dwa_bullet.cli.app import main as d3dwa
+from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.jobs import row_log_path
 from d3dwa_bullet.evaluation.plotting import trajectory_figure
 from d3dwa_bullet.evaluation.readings import reading_text
 from d3dwa_bullet.evaluation.results import load_log, read_results
 from d3dwa_bullet.io import file_stem
+from d3dwa_bullet.loading import parse_json
 from d3dwa_bullet.world.registry import load_world
 from tools.entry import ToolParser, tool_main
 
@@ -57,7 +58,9 @@ def compare(kin: Path, ref: Path, method: str) -> dict | None:
                 "--json",
             ]
         )
-    return json.loads(buffer.getvalue()) if code == 0 else None
+    return (
+        parse_json(buffer.getvalue(), ResultsError, "d3dwa compare --json") if code == 0 else None
+    )
 
 
 def cell_text(record: dict | None, profile: str, metric: str) -> str:
