@@ -216,15 +216,56 @@ def status_code(status: str) -> int:
     return STATUSES.index(status)
 
 
+def known_field(params: GlobalPlanParams | None, world: World | None) -> Grid | None:
+    """The clearance field (m, a Grid at RESOLUTION) ``map`` plans on: world's, in its own frame
+    (None for ``scan`` or no plan); ConfigError when ``map`` has no world to read."""
+    if params is None or params.kind != "map":
+        return None
+    if world is None:
+        raise ConfigError("--global-plan map needs the world's map")
+    return clearance_field(world, RESOLUTION, params.margin)
+
+
 def make_global_planner(config: Any, world: World) -> GlobalPlanner | None:
     """The global plan of an episode config (an EpisodeConfig; None on the paper's stack) on
     world: ``map`` plans on its clearance field, ``scan`` from start and goal only."""
     params = config.global_plan
     if params is None:
         return None
-    known = clearance_field(world, RESOLUTION, params.margin) if params.kind == "map" else None
+    known = known_field(params, world)
     period = config.sim.control_period
     return GlobalPlanner(params, config.planner, period, world.start, world.goal, known)
+
+
+class FirstStepPlan:
+    """The global plan of a run that learns its start at its first step (a bag replay, the live
+    loop of ``d3dwa drive``): the very :class:`GlobalPlanner` an episode of the same config
+    makes, built from the first estimated pose and the goal, and :func:`steer` on it.
+
+    config: an EpisodeConfig (no plan on the paper's stack); known_map: the world ``map``
+    plans on, in the estimate's frame (its clearance field is computed here, before any step).
+    """
+
+    def __init__(self, config: Any, known_map: World | None = None) -> None:
+        self.params: GlobalPlanParams | None = config.global_plan
+        self.config = config
+        self.known = known_field(self.params, known_map)
+        self.plan: GlobalPlanner | None = None
+        """The plan being followed (None before the first step, or on the paper's stack)."""
+
+    def steer(
+        self, t: float, pose: Any, points: np.ndarray, goal: Any
+    ) -> tuple[tuple[float, float], tuple[float, float]]:
+        """:func:`steer` at one step (t s, pose (3,) estimate, points (M, 2) base_link, goal
+        (2,) m), after making the plan from pose and goal at the first."""
+        pose = (float(pose[0]), float(pose[1]), float(pose[2]))
+        target = (float(goal[0]), float(goal[1]))
+        if self.plan is None and self.params is not None:
+            period = self.config.sim.control_period
+            self.plan = GlobalPlanner(
+                self.params, self.config.planner, period, pose, target, self.known
+            )
+        return steer(self.plan, t, pose, points, target)
 
 
 def steer(
