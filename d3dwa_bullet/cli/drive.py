@@ -77,7 +77,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_global_plan_option(p)
     p.add_argument(
         "--map", type=Path, metavar="FILE",
-        help="the map --global-plan map plans on: a map_server YAML (+ its image) in the frame of --goal",
+        help="the map --global-plan map plans on: a map_server YAML (+ its image) in the robot's map frame "
+        "(where the robot reports its pose on its map)",
     )  # fmt: skip
     p.add_argument("--record", type=Path, metavar="BAG", help="write the run as a ROS 2 bag")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --record bag")
@@ -202,7 +203,7 @@ def _known_map(path: Path | None, plan: GlobalPlanParams | None) -> World | None
     if path is None:
         raise ConfigError(
             "--global-plan map on drive needs --map FILE: the robot's map as a map_server YAML "
-            "(+ its image), in the frame of --goal"
+            "(+ its image)"
         )
     try:
         return load_map_world(path)

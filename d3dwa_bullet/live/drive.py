@@ -47,7 +47,7 @@ from d3dwa_bullet.live.safety import (
     deferred_interrupts,
     empty_sectors,
 )
-from d3dwa_bullet.planning.global_plan import GlobalPlanner
+from d3dwa_bullet.planning.global_plan import GlobalPlanner, moved
 from d3dwa_bullet.planning.planner import PlannerAction
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D, scan_points_body
 from transfer.replay_step import ScanStep, SkipScan, StepOutput
@@ -174,12 +174,7 @@ def check_goal_on_map(link: KachakaLink, goal: tuple[float, float], odom: Any) -
     grid = link.map()
     if grid is None or not grid.width or not grid.resolution:
         return
-    mx, my, mt = link.robot_pose()
-    ox, oy, ot = odom.pose
-    turn = wrap_angle(mt - ot)
-    c, s = math.cos(turn), math.sin(turn)
-    dx, dy = goal[0] - ox, goal[1] - oy
-    gx, gy = mx + c * dx - s * dy, my + s * dx + c * dy
+    gx, gy = moved(odometry_on_map(link, odom), goal)
     x0, y0 = grid.origin.x, grid.origin.y
     x1, y1 = x0 + grid.width * grid.resolution, y0 + grid.height * grid.resolution
     if not (x0 <= gx <= x1 and y0 <= gy <= y1):
@@ -188,6 +183,17 @@ def check_goal_on_map(link: KachakaLink, goal: tuple[float, float], odom: Any) -
             f"(at ({gx:.2f}, {gy:.2f}) on it; the map spans x {x0:.2f}..{x1:.2f}, "
             f"y {y0:.2f}..{y1:.2f} m)"
         )
+
+
+def odometry_on_map(link: KachakaLink, odom: Any) -> tuple[float, float, float]:
+    """(x, y m, turn rad): where the odometry frame lies on the robot's map, from its pose on
+    the map and its odometry pose at the same moment (a point p of the odometry frame is at
+    (x, y) + R(turn) p on the map)."""
+    mx, my, mt = link.robot_pose()
+    ox, oy, ot = odom.pose
+    turn = wrap_angle(mt - ot)
+    c, s = math.cos(turn), math.sin(turn)
+    return (mx - (c * ox - s * oy), my - (s * ox + c * oy), turn)
 
 
 def warm_up(pipeline: ReplayPipeline) -> None:
@@ -274,6 +280,9 @@ def _loop(
     )
     odometry.check(first, link.address)  # before the goal is placed by it
     check_goal_on_map(link, settings.goal, first.odometry)
+    if pipeline.plan.known is not None:  # map: the map file is in the robot's map frame
+        frame = odometry_on_map(link, first.odometry)
+        pipeline.plan.frame = None if frame == (0.0, 0.0, 0.0) else frame
     watchdog.start()
     deadline = time.monotonic()
     reading: Reading | None = first
