@@ -55,6 +55,7 @@ from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.jobs import make_noise
 from d3dwa_bullet.geometry import wrap_angle_modular
 from d3dwa_bullet.planning.controller import Controller
+from d3dwa_bullet.planning.global_plan import FirstStepPlan
 from d3dwa_bullet.planning.observation import goal_in_body
 from d3dwa_bullet.planning.observation_kinds import Observer, make_observer, observation_layout
 from d3dwa_bullet.planning.planner import PlannerAction, PlanResult
@@ -88,16 +89,19 @@ def decide(
     config: EpisodeConfig = EpisodeConfig(),
     progress: Observer | None = None,
     t_ns: int = 0,
+    seen: Any = None,
 ) -> tuple[np.ndarray, int, PlannerAction, PlanResult]:
     """One control decision from an estimate: what ``Episode.observe`` + ``act`` compute.
 
     pose: (x, y, yaw) m/rad and velocity: (v, w) m/s, rad/s, the estimate, odometry frame;
-    goal: (x, y) m, same frame; points: (M, 2) float64 valid returns, m, base_link.
+    goal: (x, y) m, same frame, what the planner drives toward (the carrot under a global plan);
+    seen: the goal the observation reads (None: goal); points: (M, 2) float64 valid returns, m,
+    base_link.
     progress: a progress-aware controller's observer (one per bag), fed the estimated pose
     at t_ns (int ns) as ``Episode.observe`` feeds it the simulated one.
     Returns (observation (12,) or (17,), action index, action, plan result).
     """
-    obs = observation_of(pose, velocity, goal, points, config)
+    obs = observation_of(pose, velocity, goal if seen is None else seen, points, config)
     if progress is not None:
         obs = progress.extend(obs, t_ns, pose)
     index, action = controller(obs)
@@ -147,6 +151,7 @@ class ReplayPipeline:
         config: EpisodeConfig = EpisodeConfig(),
         estimator_config: EstimatorConfig = EstimatorConfig(),
         seed: int = 0,
+        known_map: World | None = None,
     ) -> None:
         if estimator not in ESTIMATORS:
             raise ConfigError(
@@ -171,6 +176,8 @@ class ReplayPipeline:
         self.scan_filter = ScanFilter(config.scan_filter)
         """The scan filter chain, as ``Episode`` runs it (its state lives for one replay)."""
         self._t0_ns: int | None = None
+        self.plan = FirstStepPlan(config, known_map)
+        """The global plan the planner follows, as ``Episode`` runs it (``map``: on known_map)."""
 
     def recovery_clock(self, t_ns: int) -> float:
         """Seconds since the first step's stamp. On the control grid (stamps k periods apart to
@@ -195,12 +202,13 @@ class ReplayPipeline:
         if not (np.isfinite(pose).all() and np.isfinite(velocity).all()):
             raise SkipScan(SKIP_NON_FINITE_ESTIMATE)
         points = scan_points_body(self.scan_filter(step.scan), step.mount)
+        carrot, seen = self.plan.steer(self.recovery_clock(step.t_ns), pose, points, step.goal)
         obs, index, action, result = decide(
-            pose, velocity, step.goal, points, self.controller, self.config,
-            self.progress, step.t_ns,
+            pose, velocity, carrot, points, self.controller, self.config,
+            self.progress, step.t_ns, seen,
         )  # fmt: skip
         if self.recovery is not None:  # as Episode.act: the controller chose, a recovery drives
-            goal = goal_in_body(pose, step.goal)
+            goal = goal_in_body(pose, carrot)
             self.last_recovery = self.recovery.command(
                 self.recovery_clock(step.t_ns), tuple(pose), points, (goal[0], goal[1]),
                 tuple(velocity),

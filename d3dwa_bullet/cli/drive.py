@@ -27,10 +27,14 @@ from d3dwa_bullet.cli.options import (
     time_limit_arg,
 )
 from d3dwa_bullet.cli.output import json_text
+from d3dwa_bullet.cli.plan_options import add_global_plan_option, global_plan_arg
 from d3dwa_bullet.episode_config import EpisodeConfig
-from d3dwa_bullet.errors import ConfigError, D3DWAError
+from d3dwa_bullet.errors import ConfigError, D3DWAError, WorldFormatError
 from d3dwa_bullet.method_specs import METHODS, check_method
 from d3dwa_bullet.params import SimParams, TerminationParams
+from d3dwa_bullet.planning.global_plan_params import GlobalPlanParams
+from d3dwa_bullet.world.map_server import load_map_world
+from d3dwa_bullet.world.model import World
 
 ROBOT_EXTRA = 'pip install "d3dwa-bullet[robot]"'
 
@@ -70,6 +74,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "odometry and IMU, as `d3dwa replay --estimator`",
     )  # fmt: skip
     add_recovery_options(p)
+    add_global_plan_option(p)
+    p.add_argument(
+        "--map", type=Path, metavar="FILE",
+        help="the map --global-plan map plans on: a map_server YAML (+ its image) in the robot's map frame "
+        "(where the robot reports its pose on its map)",
+    )  # fmt: skip
     p.add_argument("--record", type=Path, metavar="BAG", help="write the run as a ROS 2 bag")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --record bag")
     p.add_argument("--time-limit", type=float, help="s (default 60)")
@@ -113,9 +123,12 @@ def cmd_drive(args: argparse.Namespace) -> int:
         if value is not None:
             _seconds(value, option)
     time_limit = time_limit_arg(args.time_limit) or TerminationParams().time_limit
+    plan = global_plan_arg(args)
+    known_map = _known_map(args.map, plan)
     config = EpisodeConfig(
-        recovery=recovery_arg(args, SimParams().control_period), scan_filter=scan_filter_arg(args)
-    )
+        recovery=recovery_arg(args, SimParams().control_period), scan_filter=scan_filter_arg(args),
+        global_plan=plan,
+    )  # fmt: skip
     check_method(args.method)
     if args.onnx is not None and args.policy is not None:
         raise ConfigError(
@@ -136,7 +149,9 @@ def cmd_drive(args: argparse.Namespace) -> int:
     controller = make_controller(args.method, args.policy, onnx=args.onnx)
     if controller.policy is not None and not args.json:  # its terms, as `run` prints them
         print(f"policy: {controller.source}", flush=True)
-    pipeline = ReplayPipeline(controller, estimator=args.estimator, config=config)
+    pipeline = ReplayPipeline(
+        controller, estimator=args.estimator, config=config, known_map=known_map
+    )
     live.warm_up(pipeline)
     recorder = None
     if args.record is not None:
@@ -154,7 +169,7 @@ def cmd_drive(args: argparse.Namespace) -> int:
             try:
                 live.drive(
                     link, pipeline, settings, result=result, on_step=hook,
-                    on_progress=_progress_printer(config.sim.control_hz),
+                    on_progress=_progress_printer(config.sim.control_hz), on_plan=_plan_printer,
                 )  # fmt: skip
             finally:
                 link.close()
@@ -168,9 +183,36 @@ def cmd_drive(args: argparse.Namespace) -> int:
         raise D3DWAError(
             f"drive failed: {type(err).__name__}: {err}{_after(result, recorder, '; ')}"
         ) from err
-    summary = result.summary(args.method, address, config.sim.control_period, config.recovery_name)
+    summary = result.summary(
+        args.method, address, config.sim.control_period, config.recovery_name,
+        config.global_plan_name,
+    )  # fmt: skip
     _print_summary(summary, args.json, recorder)
     return 0
+
+
+def _known_map(path: Path | None, plan: GlobalPlanParams | None) -> World | None:
+    """The map --global-plan map plans on, loaded before anything connects (None for another
+    plan); ConfigError (one line) without --map, for --map without ``map``, or naming the file
+    that does not load."""
+    kind = "none" if plan is None else plan.kind
+    if kind != "map":
+        if path is not None:
+            raise ConfigError(f"--map {path} is read only with --global-plan map (got {kind})")
+        return None
+    if path is None:
+        raise ConfigError(
+            "--global-plan map on drive needs --map FILE: the robot's map as a map_server YAML "
+            "(+ its image)"
+        )
+    try:
+        return load_map_world(path)
+    except WorldFormatError as err:
+        raise ConfigError(f"--map {path} does not load: {err}") from err
+
+
+def _plan_printer(step: int, status: str, note: str) -> None:
+    print(f"step {step}: global plan {status}: {note}", file=sys.stderr, flush=True)
 
 
 def _after(result: Any, recorder: Any, lead: str = "") -> str:

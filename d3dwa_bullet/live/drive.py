@@ -4,7 +4,10 @@ Every control period: read the scan and odometry (+ wheel odometry and IMU where
 judge the episode, then the very decision of ``d3dwa replay`` and ``d3dwa run``
 (:class:`transfer.sim_bridge.ReplayPipeline`: estimate -> observation -> controller ->
 planner, and the recovery layer where asked), clamp the command to the robot's limits and
-send it. The goal is in the odometry frame the robot reports, as ``replay`` takes it.
+send it. The goal is in the odometry frame the robot reports, as ``replay`` takes it. Under
+``--global-plan`` the pipeline's plan (the one an episode follows) turns the goal into a carrot
+every step; each change of its status (no path, a goal inside an obstacle) is told, and the
+carrot is then the goal itself (docs/design/global-plan.md#live-robot).
 
 The episode is judged on what the robot reports, as a robot can only: collision when the
 smallest valid scan range is below the collision distance, goal when the odometry pose is
@@ -44,6 +47,7 @@ from d3dwa_bullet.live.safety import (
     deferred_interrupts,
     empty_sectors,
 )
+from d3dwa_bullet.planning.global_plan import GlobalPlanner, moved
 from d3dwa_bullet.planning.planner import PlannerAction
 from d3dwa_bullet.sim.scan import LaserScan, Pose2D, scan_points_body
 from transfer.replay_step import ScanStep, SkipScan, StepOutput
@@ -85,14 +89,20 @@ class DriveResult:
     """Smallest distance from the body box to a valid scan point, m."""
     stopped: bool | None = None
     """Whether the final stop was acknowledged (False: the robot was unreachable)."""
+    plan_events: list[tuple[int, str]] = field(default_factory=list)
+    """(step, status) each time the global plan's status changed (none without a plan)."""
 
     def latency_ms(self, q: float) -> float | None:
         return float(np.percentile(self.latencies, q) * 1e3) if self.latencies else None
 
-    def summary(self, method: str, robot: str, control_period: float, recovery: str = "none"):
+    def summary(
+        self, method: str, robot: str, control_period: float, recovery: str = "none",
+        global_plan: str = "none",
+    ):  # fmt: skip
         """The row of ``d3dwa run``'s summary, judged on the robot's odometry and scan
         (world: the robot; seed and noise: none that drive knows), plus the robot's address,
-        whether the stop was acknowledged, and loop latency p50 / p99 (ms)."""
+        whether the stop was acknowledged, and loop latency p50 / p99 (ms); under a global plan
+        its name and ``plan_events``, [step, status] at each change of its status."""
         poses = np.asarray(self.poses, dtype=np.float64).reshape(-1, 3)
         row: dict[str, Any] = {
             "world": "live",
@@ -108,6 +118,9 @@ class DriveResult:
         }
         if recovery != "none":
             row["recovery"] = recovery
+        if global_plan != "none":
+            row["global_plan"] = global_plan
+            row["plan_events"] = [list(e) for e in self.plan_events]
         p50, p99 = self.latency_ms(50), self.latency_ms(99)
         return row | {
             "robot": robot,
@@ -121,6 +134,16 @@ class DriveResult:
 StepHook = Callable[[Reading, StepOutput, tuple[float, float]], None]
 #: Called after each command: (step, distance to goal m, command, loop latency s).
 ProgressHook = Callable[[int, float, tuple[float, float], float], None]
+#: Called when the global plan's status changes: (step, status, one line saying what follows).
+PlanHook = Callable[[int, str, str], None]
+
+PLAN_NOTES = {
+    "ok": "a path to the goal: following its carrot",
+    "no_path": "no path on the costmap: driving toward the goal direction",
+    "goal_blocked": "the goal lies inside an obstacle on the costmap: driving toward the goal direction",
+    "outside": "the robot or the goal is outside the costmap: driving toward the goal direction",
+}
+"""What the live loop says of each global plan status (planning.global_plan.STATUSES)."""
 
 
 def check_scan_layout(scan: LaserScan, mount: Pose2D, config: EpisodeConfig) -> None:
@@ -151,12 +174,7 @@ def check_goal_on_map(link: KachakaLink, goal: tuple[float, float], odom: Any) -
     grid = link.map()
     if grid is None or not grid.width or not grid.resolution:
         return
-    mx, my, mt = link.robot_pose()
-    ox, oy, ot = odom.pose
-    turn = wrap_angle(mt - ot)
-    c, s = math.cos(turn), math.sin(turn)
-    dx, dy = goal[0] - ox, goal[1] - oy
-    gx, gy = mx + c * dx - s * dy, my + s * dx + c * dy
+    gx, gy = moved(odometry_on_map(link, odom), goal)
     x0, y0 = grid.origin.x, grid.origin.y
     x1, y1 = x0 + grid.width * grid.resolution, y0 + grid.height * grid.resolution
     if not (x0 <= gx <= x1 and y0 <= gy <= y1):
@@ -165,6 +183,17 @@ def check_goal_on_map(link: KachakaLink, goal: tuple[float, float], odom: Any) -
             f"(at ({gx:.2f}, {gy:.2f}) on it; the map spans x {x0:.2f}..{x1:.2f}, "
             f"y {y0:.2f}..{y1:.2f} m)"
         )
+
+
+def odometry_on_map(link: KachakaLink, odom: Any) -> tuple[float, float, float]:
+    """(x, y m, turn rad): where the odometry frame lies on the robot's map, from its pose on
+    the map and its odometry pose at the same moment (a point p of the odometry frame is at
+    (x, y) + R(turn) p on the map)."""
+    mx, my, mt = link.robot_pose()
+    ox, oy, ot = odom.pose
+    turn = wrap_angle(mt - ot)
+    c, s = math.cos(turn), math.sin(turn)
+    return (mx - (c * ox - s * oy), my - (s * ox + c * oy), turn)
 
 
 def warm_up(pipeline: ReplayPipeline) -> None:
@@ -177,6 +206,13 @@ def warm_up(pipeline: ReplayPipeline) -> None:
     pipeline.controller.reset(pipeline.seed)  # the random method's warm-up draw is not a step
     action = PlannerAction(1.0, 1.0, 1.0, 2.0)
     plan_from((0.0, 0.0, 0.0), (0.0, 0.0), (1.0, 0.0), np.zeros((0, 2)), action, config)
+    first = pipeline.plan
+    if first.params is not None:  # the path search's first call, on a throwaway plan
+        period = config.sim.control_period
+        plan = GlobalPlanner(
+            first.params, config.planner, period, (0.0, 0.0, 0.0), (1.0, 0.0), first.known
+        )
+        plan.update(0.0, (0.0, 0.0, 0.0), np.zeros((0, 2)))
 
 
 def drive(
@@ -187,6 +223,7 @@ def drive(
     result: DriveResult | None = None,
     on_step: StepHook | None = None,
     on_progress: ProgressHook | None = None,
+    on_plan: PlanHook | None = None,
 ) -> DriveResult:
     """Drive until goal, collision or timeout; stop the robot on every way out.
 
@@ -197,13 +234,16 @@ def drive(
     (``safety.OdometryCheck``: RobotLinkError). result: filled in place (pass one to keep
     what a run that raises did). RobotLinkError on a lost, late or stale robot;
     ExternalMethodError on an external method's call over its budget, after the zero command
-    sent in its place; the exception of any other failure, after the stop.
+    sent in its place; the exception of any other failure, after the stop. Under a global plan
+    (the pipeline's, as an episode follows it) every change of its status is kept in
+    ``plan_events`` and told to on_plan; no path is never an error: the carrot is the goal.
     """
     out = result if result is not None else DriveResult()
     watchdog = Watchdog(settings.watchdog_s, link.stop)
     with deferred_interrupts() as interrupted:
         try:
-            _loop(link, pipeline, settings, out, watchdog, interrupted, on_step, on_progress)
+            hooks = (on_step, on_progress, on_plan)
+            _loop(link, pipeline, settings, out, watchdog, interrupted, *hooks)
         finally:
             watchdog.close()
             out.stopped = link.stop()
@@ -219,6 +259,7 @@ def _loop(
     interrupted: threading.Event,
     on_step: StepHook | None,
     on_progress: ProgressHook | None,
+    on_plan: PlanHook | None,
 ) -> None:
     """The checks, then steps until the episode ends (``out.outcome``) or an error raises."""
     config = pipeline.config
@@ -239,6 +280,9 @@ def _loop(
     )
     odometry.check(first, link.address)  # before the goal is placed by it
     check_goal_on_map(link, settings.goal, first.odometry)
+    if pipeline.plan.known is not None:  # map: the map file is in the robot's map frame
+        frame = odometry_on_map(link, first.odometry)
+        pipeline.plan.frame = None if frame == (0.0, 0.0, 0.0) else frame
     watchdog.start()
     deadline = time.monotonic()
     reading: Reading | None = first
@@ -269,6 +313,7 @@ def _loop(
         late = None
         if blind is None:
             decided = _decide(pipeline, reading, mount, goal)
+            _plan_event(pipeline, out, on_plan)
             assert decided.cmd is not None
             command = settings.limits.clamp(*decided.cmd)
             late = _late_call(pipeline)
@@ -311,6 +356,17 @@ def _decide(pipeline: ReplayPipeline, reading: Reading, mount: Pose2D, goal: np.
         return pipeline(step)
     except SkipScan as err:
         raise ScanError(f"cannot decide at stamp {step.t_ns} ns: {err.reason}") from err
+
+
+def _plan_event(pipeline: ReplayPipeline, out: DriveResult, on_plan: PlanHook | None) -> None:
+    """Keep (and tell) the global plan's status when the step just decided changed it."""
+    plan = pipeline.plan.plan
+    if plan is None or len(plan.events) <= len(out.plan_events):
+        return
+    status = plan.events[-1][1]
+    out.plan_events.append((out.steps, status))
+    if on_plan is not None:
+        on_plan(out.steps, status, PLAN_NOTES[status])
 
 
 def _late_call(pipeline: ReplayPipeline) -> ExternalMethodError | None:

@@ -30,6 +30,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.geometry import wrap_angle
 from d3dwa_bullet.params import PlannerParams
 from d3dwa_bullet.planning.costmap import (
     RESOLUTION,
@@ -216,15 +217,81 @@ def status_code(status: str) -> int:
     return STATUSES.index(status)
 
 
+def known_field(params: GlobalPlanParams | None, world: World | None) -> Grid | None:
+    """The clearance field (m, a Grid at RESOLUTION) ``map`` plans on: world's, in its own frame
+    (None for ``scan`` or no plan); ConfigError when ``map`` has no world to read."""
+    if params is None or params.kind != "map":
+        return None
+    if world is None:
+        raise ConfigError("--global-plan map needs the world's map")
+    return clearance_field(world, RESOLUTION, params.margin)
+
+
 def make_global_planner(config: Any, world: World) -> GlobalPlanner | None:
     """The global plan of an episode config (an EpisodeConfig; None on the paper's stack) on
     world: ``map`` plans on its clearance field, ``scan`` from start and goal only."""
     params = config.global_plan
     if params is None:
         return None
-    known = clearance_field(world, RESOLUTION, params.margin) if params.kind == "map" else None
+    known = known_field(params, world)
     period = config.sim.control_period
     return GlobalPlanner(params, config.planner, period, world.start, world.goal, known)
+
+
+class FirstStepPlan:
+    """The global plan of a run that learns its start at its first step (a bag replay, the live
+    loop of ``d3dwa drive``): the very :class:`GlobalPlanner` an episode of the same config
+    makes, built from the first estimated pose and the goal, and :func:`steer` on it.
+
+    config: an EpisodeConfig (no plan on the paper's stack); known_map: the world ``map``
+    plans on (its clearance field is computed here, before any step), in the estimate's frame
+    unless :attr:`frame` says where the estimate's frame lies on it.
+    """
+
+    def __init__(self, config: Any, known_map: World | None = None) -> None:
+        self.params: GlobalPlanParams | None = config.global_plan
+        self.config = config
+        self.known = known_field(self.params, known_map)
+        self.plan: GlobalPlanner | None = None
+        """The plan being followed (None before the first step, or on the paper's stack)."""
+        self.frame: tuple[float, float, float] | None = None
+        """(x, y m, turn rad): the estimate's frame on known_map's (a point p of the estimate's
+        frame is at (x, y) + R(turn) p on the map); None: the same frame. The plan then runs
+        on the map's frame and its carrot comes back to the estimate's."""
+
+    def steer(
+        self, t: float, pose: Any, points: np.ndarray, goal: Any
+    ) -> tuple[tuple[float, float], tuple[float, float]]:
+        """:func:`steer` at one step (t s, pose (3,) estimate, points (M, 2) base_link, goal
+        (2,) m), after making the plan from pose and goal at the first."""
+        pose = (float(pose[0]), float(pose[1]), float(pose[2]))
+        target = (float(goal[0]), float(goal[1]))
+        frame = self.frame
+        if frame is not None:
+            pose = (*moved(frame, pose), wrap_angle(pose[2] + frame[2]))
+            target = moved(frame, target)
+        if self.plan is None and self.params is not None:
+            period = self.config.sim.control_period
+            self.plan = GlobalPlanner(
+                self.params, self.config.planner, period, pose, target, self.known
+            )
+        carrot, seen = steer(self.plan, t, pose, points, target)
+        if frame is None:
+            return carrot, seen
+        back = inverse(frame)
+        return moved(back, carrot), moved(back, seen)
+
+
+def moved(frame: tuple[float, float, float], p: Any) -> tuple[float, float]:
+    """Point p (x, y) of a frame at (x, y, turn) on another, in that other frame, m."""
+    c, s = math.cos(frame[2]), math.sin(frame[2])
+    return (frame[0] + c * p[0] - s * p[1], frame[1] + s * p[0] + c * p[1])
+
+
+def inverse(frame: tuple[float, float, float]) -> tuple[float, float, float]:
+    """The frame (x, y, turn) the other way round: moved(inverse(f), moved(f, p)) == p."""
+    c, s = math.cos(frame[2]), math.sin(frame[2])
+    return (-(c * frame[0] + s * frame[1]), s * frame[0] - c * frame[1], -frame[2])
 
 
 def steer(
