@@ -10,6 +10,7 @@ B's: ``same_episodes`` is true only if all are equal bit for bit::
 
     python -m tools.bench.episode_cost --json                      # against 9fc0444
     python -m tools.bench.episode_cost --barn-ids 0 --layouts 1 --workers 1   # a smoke test
+    python -m tools.bench.episode_cost --families BARN --workers 1 --json     # BARN alone
 
 ``episodes_per_core_min`` = episodes / (CPU s / 60); ``cpu_ratio`` = B's CPU / A's (above 1: A is
 cheaper); ``workers_speedup`` = wall of 1 worker / wall of N, per tree, which only means something
@@ -121,7 +122,7 @@ def run(args: argparse.Namespace, tmp: Path) -> list[dict[str, Any]]:
     """Every (family, workers) cell: A then B, compared."""
     base = baseline_tree(args.baseline, tmp / "baseline")
     cells = []
-    for family in FAMILIES:
+    for family in args.families:
         for workers in args.workers:
             outs = {name: tmp / f"{family}-w{workers}-{name}" for name in ("A", "B")}
             a = timed(sweep_argv(family, args, workers, outs["A"]), None, outs["A"])
@@ -166,6 +167,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap.add_argument(
         "--baseline", default="9fc0444", help="commit to compare with (default 9fc0444)"
     )
+    ap.add_argument(
+        "--families", default=",".join(FAMILIES), help="comma list (default %(default)s)"
+    )
     ap.add_argument("--barn-ids", default="0,150", help="BARN challenge world ids (default 0,150)")
     ap.add_argument("--layouts", type=int, default=1, help="fresh layouts per R style (default 1)")
     ap.add_argument("--methods", default="dwa3,d3dwa", help="comma list (default dwa3,d3dwa)")
@@ -178,6 +182,11 @@ def main(argv: Sequence[str] | None = None) -> None:
         args.workers = [int(w) for w in args.workers.split(",")]
     except ValueError:
         ap.error(f"--workers must be a comma list of integers >= 1, got {args.workers!r}")
+    args.families = [f for f in args.families.split(",") if f]
+    unknown = [f for f in args.families if f not in FAMILIES]
+    if unknown or not args.families:
+        got = ",".join(unknown) or "none"
+        ap.error(f"--families must be a comma list of {', '.join(FAMILIES)}, got {got}")
     if args.layouts < 1 or min(args.workers) < 1:
         ap.error(f"--layouts and --workers must be >= 1, got {args.layouts} and {args.workers}")
     with tempfile.TemporaryDirectory(prefix="episode_cost-") as tmp:
