@@ -25,11 +25,12 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, Self
 
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.params import RobotLimits, SimParams
 from d3dwa_bullet.sim.lidar_params import LidarParams
+from d3dwa_bullet.timing import perf
 from d3dwa_bullet.world.model import Box, Cylinder, World
 
 if TYPE_CHECKING:  # annotations only: importing either backend loads its engine
@@ -37,6 +38,7 @@ if TYPE_CHECKING:  # annotations only: importing either backend loads its engine
 
     from d3dwa_bullet.sim.estimator import PoseEstimator
     from d3dwa_bullet.sim.noise import NoiseModel
+    from d3dwa_bullet.sim.odometry import WheelOdometry
     from d3dwa_bullet.sim.scan import LaserScan
     from d3dwa_bullet.timing import StageClock
 
@@ -157,3 +159,84 @@ def fuse_period(
     fix = noise.pose_fix(t, true_pose)
     if fix is not None:
         estimator.update_pose_fix(*fix)
+
+
+class BackendBase:
+    """What both backends do alike above their physics: the clock, the noisy scan over the true
+    ranges, the estimate, the command's limits and the fusion of a period's readings. A backend
+    gives ``true_ranges``, ``true_pose``, ``true_velocity``, ``in_contact``, ``step`` and
+    ``close``, and the attributes below."""
+
+    clock: StageClock
+    step_count: int
+    sim: SimParams
+    limits: RobotLimits
+    noise: NoiseModel
+    noisy: bool
+    estimator: PoseEstimator
+    odometry: WheelOdometry
+    command: tuple[float, float]
+    lidar: Any
+    """The lidar: ``params`` (:class:`LidarParams`) and ``scan(ranges, stamp_ns)``."""
+
+    @property
+    def time(self) -> float:
+        """Simulated time since reset, s."""
+        return self.step_count * self.sim.control_period
+
+    def true_ranges(self) -> np.ndarray:
+        """The lidar's true ranges at the present pose: (beams,) float64, m, +inf: no return."""
+        raise NotImplementedError
+
+    def true_pose(self) -> tuple[float, float, float]:
+        """Ground-truth base_link pose (x, y, yaw), m and rad."""
+        raise NotImplementedError
+
+    def true_velocity(self) -> tuple[float, float]:
+        """Ground-truth body-frame (v, w): m/s, rad/s."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release what the backend holds."""
+
+    def estimate(self) -> tuple[tuple[float, float, float], tuple[float, float]]:
+        """The pose and velocity the robot believes: EKF with noise on, ground truth without."""
+        if not self.noisy:
+            return self.true_pose(), self.true_velocity()
+        est = self.estimator
+        return tuple(float(v) for v in est.pose), tuple(float(v) for v in est.velocity)  # type: ignore[return-value]
+
+    def sense(self) -> tuple[LaserScan, np.ndarray]:
+        """The scan the robot sees (noise applied) and the true ranges, (beams,) m."""
+        clock, t = self.clock, perf()
+        true = self.true_ranges()
+        prm = self.lidar.params
+        t = clock.charge("lidar", t)
+        seen = self.noise.corrupt_ranges(true, prm.range_min, prm.range_max) if self.noisy else true
+        t = clock.charge("noise", t)
+        scan = self.lidar.scan(seen, int(round(self.time * 1e9)))
+        clock.charge("lidar", t)
+        return scan, true
+
+    def limit_command(self, v: float, w: float) -> tuple[float, float]:
+        """(v, w) clipped to the velocity limits and to what the accelerations allow this period
+        (:func:`limit_command`)."""
+        return limit_command(self.limits, self.sim.control_period, self.command, v, w)
+
+    def _fuse(self, t: float, odom_twist: tuple[float, float], w_true: float) -> None:
+        """Fuse the readings of the period ending at t (s): odometry (v, w) and the true mean
+        yaw rate w_true (rad/s) through the gyro model, then predict to t, then any pose fix."""
+        fuse_period(
+            self.estimator, self.noise, t, self.sim.control_period, odom_twist, w_true,
+            self.true_pose(),
+        )  # fmt: skip
+
+    def odometry_pose(self) -> tuple[float, float, float]:
+        """Raw wheel-odometry pose (noise on), else ground truth."""
+        return tuple(self.odometry.pose) if self.noisy else self.true_pose()  # type: ignore[return-value]
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

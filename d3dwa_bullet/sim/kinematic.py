@@ -37,7 +37,7 @@ from d3dwa_bullet.robot import (
     TRACK,
     WHEEL_RADIUS,
 )
-from d3dwa_bullet.sim.backend import fuse_period, limit_command
+from d3dwa_bullet.sim.backend import BackendBase
 from d3dwa_bullet.sim.estimator import PoseEstimator
 from d3dwa_bullet.sim.lidar_params import LidarParams
 from d3dwa_bullet.sim.noise import NoiseModel, encoder_wheel_speed, ground_wheel_speed
@@ -116,7 +116,7 @@ class LidarModel:
         )  # fmt: skip
 
 
-class KinematicSimulator:
+class KinematicSimulator(BackendBase):
     """One Kachaka in one world, without physics: the :class:`~d3dwa_bullet.sim.backend.SimBackend`
     of ``--backend kinematic``. ConfigError for a world with a shape it cannot cast."""
 
@@ -152,11 +152,6 @@ class KinematicSimulator:
         if self.noisy:
             self._fuse(0.0, (0.0, 0.0), 0.0)
 
-    @property
-    def time(self) -> float:
-        """Simulated time since reset, s."""
-        return self.step_count * self.sim.control_period
-
     def true_pose(self) -> tuple[float, float, float]:
         """Ground-truth base_link pose (x, y, yaw), m and rad."""
         return self.pose  # type: ignore[return-value]
@@ -168,13 +163,6 @@ class KinematicSimulator:
             float(0.5 * ROLLING_RADIUS * (left + right)),
             float(ROLLING_RADIUS * (right - left) / EFFECTIVE_TRACK),
         )
-
-    def estimate(self) -> tuple[tuple[float, float, float], tuple[float, float]]:
-        """The pose and velocity the robot believes: EKF with noise on, ground truth without."""
-        if not self.noisy:
-            return self.true_pose(), self.true_velocity()
-        est = self.estimator
-        return tuple(float(v) for v in est.pose), tuple(float(v) for v in est.velocity)  # type: ignore[return-value]
 
     def in_contact(self) -> bool:
         """True if the body box touches an obstacle."""
@@ -193,22 +181,6 @@ class KinematicSimulator:
         return cast_rays(
             self.rows, ox, oy, yaw, self._z, prm.angle_min, prm.increment, prm.beams, prm.range_max
         )
-
-    def sense(self) -> tuple[LaserScan, np.ndarray]:
-        """The scan the robot sees (noise applied) and the true ranges, (beams,) m."""
-        clock, t = self.clock, perf()
-        true = self.true_ranges()
-        prm = self.lidar.params
-        t = clock.charge("lidar", t)
-        seen = self.noise.corrupt_ranges(true, prm.range_min, prm.range_max) if self.noisy else true
-        t = clock.charge("noise", t)
-        scan = self.lidar.scan(seen, int(round(self.time * 1e9)))
-        clock.charge("lidar", t)
-        return scan, true
-
-    def limit_command(self, v: float, w: float) -> tuple[float, float]:
-        """(v, w) clipped to the limits and to what the accelerations allow this period."""
-        return limit_command(self.limits, self.sim.control_period, self.command, v, w)
 
     def step(self, v: float, w: float) -> tuple[float, float]:
         """Run one control period under command (v, w). Returns the command applied."""
@@ -239,20 +211,5 @@ class KinematicSimulator:
             clock.charge("estimator", t)
         return self.command
 
-    def _fuse(self, t: float, odom_twist: tuple[float, float], w_true: float) -> None:
-        fuse_period(
-            self.estimator, self.noise, t, self.sim.control_period, odom_twist, w_true, self.pose
-        )
-
-    def odometry_pose(self) -> tuple[float, float, float]:
-        """Raw wheel-odometry pose (noise on), else ground truth."""
-        return tuple(self.odometry.pose) if self.noisy else self.true_pose()  # type: ignore[return-value]
-
     def close(self) -> None:
         """Nothing to release (no physics client)."""
-
-    def __enter__(self) -> KinematicSimulator:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()

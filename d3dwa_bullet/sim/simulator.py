@@ -38,13 +38,12 @@ from d3dwa_bullet.geometry import wrap_angle_modular
 from d3dwa_bullet.params import RobotLimits, SimParams
 from d3dwa_bullet.resources import urdf_path
 from d3dwa_bullet.robot import AXLE_HEIGHT, LIDAR_MOUNT, TRACK, WHEEL_RADIUS
-from d3dwa_bullet.sim.backend import fuse_period, limit_command
+from d3dwa_bullet.sim.backend import BackendBase
 from d3dwa_bullet.sim.bullet import p
 from d3dwa_bullet.sim.estimator import PoseEstimator
 from d3dwa_bullet.sim.lidar import Lidar, LidarParams
 from d3dwa_bullet.sim.noise import NoiseModel, encoder_wheel_speed, ground_wheel_speed
 from d3dwa_bullet.sim.odometry import WheelOdometry
-from d3dwa_bullet.sim.scan import LaserScan
 from d3dwa_bullet.timing import StageClock, perf
 from d3dwa_bullet.world.model import Box, Cylinder, World, obstacle_outline
 
@@ -105,7 +104,7 @@ class DriveParams:
     (measured 1.7 vs 2.1 ms per control step); speeds and paths agree to a few mm over 10 s."""
 
 
-class Simulator:
+class Simulator(BackendBase):
     """One Kachaka in one world, headless unless gui=True."""
 
     def __init__(
@@ -212,11 +211,6 @@ class Simulator:
         return [p.createMultiBody(0, shape, visual, [0, 0, 0], physicsClientId=cid)]
 
     # -- state -------------------------------------------------------------------------
-    @property
-    def time(self) -> float:
-        """Simulated time since reset, s."""
-        return self.step_count * self.sim.control_period
-
     def true_pose(self) -> tuple[float, float, float]:
         """Ground-truth base_link pose (x, y, yaw), m and rad.
 
@@ -235,38 +229,16 @@ class Simulator:
         yaw = self.true_pose()[2]
         return float(math.cos(yaw) * lin[0] + math.sin(yaw) * lin[1]), float(ang[2])
 
-    def estimate(self) -> tuple[tuple[float, float, float], tuple[float, float]]:
-        """The pose and velocity the robot believes: EKF with noise on, ground truth without."""
-        if not self.noisy:
-            return self.true_pose(), self.true_velocity()
-        est = self.estimator
-        return tuple(float(v) for v in est.pose), tuple(float(v) for v in est.velocity)  # type: ignore[return-value]
-
     def in_contact(self) -> bool:
         """True if the robot touches any obstacle (Bullet contact points)."""
         cid = self.client
         return any(p.getContactPoints(self.robot, ob, physicsClientId=cid) for ob in self.obstacles)
 
-    def sense(self) -> tuple[LaserScan, np.ndarray]:
-        """The scan the robot sees (noise applied) and the true ranges, (beams,) m."""
-        clock, t = self.clock, perf()
-        true = self.lidar.ranges()
-        prm = self.lidar.params
-        t = clock.charge("lidar", t)
-        seen = self.noise.corrupt_ranges(true, prm.range_min, prm.range_max) if self.noisy else true
-        t = clock.charge("noise", t)
-        scan = self.lidar.scan(seen, int(round(self.time * 1e9)))
-        clock.charge("lidar", t)
-        return scan, true
+    def true_ranges(self) -> np.ndarray:
+        """The lidar's true ranges at the present pose (``rayTestBatch``): (beams,) float64, m."""
+        return self.lidar.ranges()
 
     # -- control -----------------------------------------------------------------------
-    def limit_command(self, v: float, w: float) -> tuple[float, float]:
-        """Clip (v, w) to the velocity limits and to what the accelerations allow this period.
-
-        Reverse down to -v_max is allowed: the planner never commands it (v >= 0), the
-        recovery layer's back-up does."""
-        return limit_command(self.limits, self.sim.control_period, self.command, v, w)
-
     def _apply_wheels(self, v: float, w: float, slip: np.ndarray) -> None:
         omega = np.array(
             [(v - 0.5 * TRACK * w) / WHEEL_RADIUS, (v + 0.5 * TRACK * w) / WHEEL_RADIUS]
@@ -305,30 +277,7 @@ class Simulator:
         states = p.getJointStates(self.robot, self.wheels, physicsClientId=self.client)
         return np.array([s[0] for s in states], dtype=np.float64)
 
-    def _fuse(self, t: float, odom_twist: tuple[float, float], w_true: float) -> None:
-        """Fuse the readings of the period ending at t (s): odometry (v, w) and the true mean
-        yaw rate w_true (rad/s) through the gyro model, then predict to t, then any pose fix."""
-        fuse_period(
-            self.estimator,
-            self.noise,
-            t,
-            self.sim.control_period,
-            odom_twist,
-            w_true,
-            self.true_pose(),
-        )
-
-    def odometry_pose(self) -> tuple[float, float, float]:
-        """Raw wheel-odometry pose (noise on), else ground truth."""
-        return tuple(self.odometry.pose) if self.noisy else self.true_pose()  # type: ignore[return-value]
-
     def close(self) -> None:
         if self.client is not None and p.isConnected(physicsClientId=self.client):
             p.disconnect(physicsClientId=self.client)
         self.client = None  # type: ignore[assignment]
-
-    def __enter__(self) -> Simulator:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
