@@ -36,12 +36,12 @@ import numpy as np
 from scipy import optimize, stats
 
 from d3dwa_bullet.evaluation.plans.boundaries import (
-    _check,
-    _grid,
-    _step,
-    _weights,
     boundaries,
+    carry_density,
+    check_fractions,
+    grid_to,
     spending,
+    trapezoid_weights,
 )
 from d3dwa_bullet.evaluation.plans.looks import z_of
 
@@ -141,7 +141,7 @@ class _Alive:
 def _solve(
     n: tuple[int, ...], maximum: int, alphas: tuple[float, ...], replicates: int, seed: int
 ) -> tuple[tuple[float, ...], ...]:
-    t = _check(np.asarray(n) / maximum)
+    t = check_fractions(np.asarray(n) / maximum)
     floor = min(float(np.min(boundaries(t, a))) for a in alphas) - 1.0  # the t's are within 1
     tails = null_tails(n, replicates, seed, floor)
     return tuple(_bounds(t, a, tails, replicates, floor) for a in alphas)
@@ -156,8 +156,8 @@ def _bounds(
     u, zk_ = _Alive(tails[0], replicates), _Alive(tails[1], replicates)
     b = np.empty(t.size)
     b[0] = stats.norm.isf(spent[0])
-    z = _grid(b[0])
-    density = stats.norm.pdf(z) * _weights(z)
+    z = grid_to(b[0])
+    density = stats.norm.pdf(z) * trapezoid_weights(z)
     for k in range(t.size):
         if k > 0:
             sd = np.sqrt((t[k] - t[k - 1]) / t[k])
@@ -173,8 +173,8 @@ def _bounds(
                 return exact + mc / replicates - spent[k]
 
             b[k] = optimize.brentq(excess, floor, 40.0, xtol=1e-10)
-            grid = _grid(b[k])
-            density = _step(density, z, t[k - 1], t[k], grid, 0.0) * _weights(grid)
+            grid = grid_to(b[k])
+            density = carry_density(density, z, t[k - 1], t[k], grid, 0.0) * trapezoid_weights(grid)
             z = grid
         u.cross(k, b[k])
         zk_.cross(k, b[k])
