@@ -3,7 +3,8 @@
 Given a finished results directory and a committed plan file (d3dwa_bullet.evaluation.plans),
 the layouts are put in the plan's order (its ``order_seed``; strata interleaved), and each cell
 under each profile is read at each look on the headline metric against the plan's
-Lan-DeMets O'Brien-Fleming boundaries, stopping once it reads (docs/design/sequential-plans.md).
+Lan-DeMets O'Brien-Fleming boundaries for the t (``student.rule_boundaries``), stopping once it
+reads (docs/design/sequential-plans.md).
 A method under a profile runs on a look's layouts while some open cell of that profile names it;
 the episodes it would have needed are the rows it has on those layouts. Printed: each cell's
 sequential reading in the committed order beside the fixed-N reading (``plan_readings``' rule on
@@ -35,7 +36,6 @@ from d3dwa_bullet.evaluation.plans import (
     DECISIONS,
     Family,
     Plan,
-    boundaries,
     decisions,
     first_reading,
     layout_order,
@@ -43,6 +43,7 @@ from d3dwa_bullet.evaluation.plans import (
     prefix_estimates,
 )
 from d3dwa_bullet.evaluation.plans.order import stratum_of
+from d3dwa_bullet.evaluation.plans.student import rule_boundaries
 from d3dwa_bullet.evaluation.readings import metric_text
 from tools.entry import ToolParser, tool_main
 from tools.experiments.plan_readings import finished_rows, read_cells
@@ -93,8 +94,7 @@ def replay(rows: Rows, plan: Plan, orders: int) -> dict[str, Any]:
             [[index[w] for w in layout_order(strata, s)] for s in seeds]
         )  # (orders+1, n)
         looks = np.asarray(family.looks)
-        t = looks / family.maximum
-        bound_d, bound_t = boundaries(t, plan.alpha / 2), boundaries(t, plan.alpha)
+        bound_d, bound_t = rule_boundaries(looks, family.maximum, plan.alpha)
         stop: dict[tuple[str, str], np.ndarray] = {}  # (method, profile) -> the last look it ran to
         for profile in plan.profiles:
             here = [r for r in rows if r["noise"] == profile]

@@ -38,14 +38,15 @@ def spending(t: np.ndarray | float, alpha: float) -> np.ndarray:
     return np.asarray(2 * stats.norm.sf(z / np.sqrt(np.asarray(t, dtype=float))))
 
 
-def _check(fractions: Fractions) -> np.ndarray:
+def check_fractions(fractions: Fractions) -> np.ndarray:
+    """fractions as a (K,) array; ValueError unless they increase within (0, 1]."""
     t = np.asarray(fractions, dtype=float)
     if t.size == 0 or not (np.all(np.diff(t) > 0) and t[0] > 0 and t[-1] <= 1 + 1e-12):
         raise ValueError(f"information fractions must increase within (0, 1], got {list(t)}")
     return t
 
 
-def _step(
+def carry_density(
     density: np.ndarray, z: np.ndarray, t0: float, t1: float, grid: np.ndarray, drift: float
 ) -> np.ndarray:
     """The (sub-)density of Z at fraction t1 on grid, from its density on z at fraction t0
@@ -57,13 +58,15 @@ def _step(
     return (np.exp(-0.5 * x * x) @ density) / (sd * np.sqrt(2 * np.pi))
 
 
-def _weights(z: np.ndarray) -> np.ndarray:
+def trapezoid_weights(z: np.ndarray) -> np.ndarray:
+    """(n,) the trapezoid rule's weights on an equally spaced grid z (n,)."""
     w = np.full(z.size, z[1] - z[0] if z.size > 1 else 1.0)
     w[0] = w[-1] = w[0] / 2
     return w
 
 
-def _grid(top: float) -> np.ndarray:
+def grid_to(top: float) -> np.ndarray:
+    """The z grid (n,) the recursion integrates on, from GRID_LOW up to a bound ``top``."""
     n = max(int(np.ceil((top - GRID_LOW) / GRID_STEP)), 2)
     return np.linspace(GRID_LOW, top, n + 1)
 
@@ -72,18 +75,18 @@ def crossing_probability(bounds: Fractions, fractions: Fractions, drift: float =
     """(K,) the chance of crossing upper boundary ``bounds`` first at each look, for a z
     statistic whose mean at fraction t is drift * sqrt(t) (drift 0: no effect; drift: the
     z the effect would have at the maximum)."""
-    t = _check(fractions)
+    t = check_fractions(fractions)
     c = np.asarray(bounds, dtype=float)
     out = np.empty(t.size)
     out[0] = stats.norm.sf(c[0] - drift * np.sqrt(t[0]))
-    z = _grid(c[0])
-    density = stats.norm.pdf(z - drift * np.sqrt(t[0])) * _weights(z)
+    z = grid_to(c[0])
+    density = stats.norm.pdf(z - drift * np.sqrt(t[0])) * trapezoid_weights(z)
     for k in range(1, t.size):
         sd = np.sqrt((t[k] - t[k - 1]) / t[k])
         mean = z * np.sqrt(t[k - 1] / t[k]) + drift * (t[k] - t[k - 1]) / np.sqrt(t[k])
         out[k] = float(stats.norm.sf((c[k] - mean) / sd) @ density)
-        grid = _grid(c[k])
-        density = _step(density, z, t[k - 1], t[k], grid, drift) * _weights(grid)
+        grid = grid_to(c[k])
+        density = carry_density(density, z, t[k - 1], t[k], grid, drift) * trapezoid_weights(grid)
         z = grid
     return out
 
@@ -93,12 +96,12 @@ def boundaries(fractions: Fractions, alpha: float) -> np.ndarray:
     O'Brien-Fleming spending at these information fractions (the last spends what the
     spending function has left at it: all of alpha when it is 1). Each look's boundary
     depends only on the looks up to it, so a plan's boundaries stay put as looks are added."""
-    t = _check(fractions)
+    t = check_fractions(fractions)
     spent = np.diff(np.concatenate([[0.0], spending(t, alpha)]))
     c = np.empty(t.size)
     c[0] = stats.norm.isf(spent[0])
-    z = _grid(c[0])
-    density = stats.norm.pdf(z) * _weights(z)
+    z = grid_to(c[0])
+    density = stats.norm.pdf(z) * trapezoid_weights(z)
     for k in range(1, t.size):
         sd = np.sqrt((t[k] - t[k - 1]) / t[k])
         mean = z * np.sqrt(t[k - 1] / t[k])
@@ -109,8 +112,8 @@ def boundaries(fractions: Fractions, alpha: float) -> np.ndarray:
             return float(stats.norm.sf((ck - mean) / sd) @ f) - spent[k]
 
         c[k] = optimize.brentq(excess, -10.0, 40.0, xtol=1e-10)
-        grid = _grid(c[k])
-        density = _step(density, z, t[k - 1], t[k], grid, 0.0) * _weights(grid)
+        grid = grid_to(c[k])
+        density = carry_density(density, z, t[k - 1], t[k], grid, 0.0) * trapezoid_weights(grid)
         z = grid
     return c
 
@@ -141,7 +144,7 @@ def maximum_layouts(
     a t-based reading about 1 point short of its power (docs/design/sequential-plans.md)."""
     if effect == 0 or sd <= 0:
         raise ValueError(f"a maximum needs a non-zero effect and a positive sd, got {effect}, {sd}")
-    t = _check(fractions)
+    t = check_fractions(fractions)
     c = boundaries(t, alpha)
     n = int(np.ceil((drift_for_power(t, alpha, power) * sd / abs(effect)) ** 2 - 1e-9))
     while True:

@@ -5,10 +5,10 @@ per family, the layouts in the plan's order; at each look the episodes the open 
 need (a method under a profile runs only while an open cell of that profile names it) are asked
 of ``run`` (every key asked so far, so a source that skips finished episodes resumes), then each
 open cell is read on the headline metric (its question's estimator, ``looks.ESTIMATORS``)
-against the look's boundaries; a cell that reads is closed; the family stops at its maximum or
-once no cell is open. Every look of every cell is a line of ``looks.jsonl`` (rewritten whole
-after each look: a resumed run reads the same rows and so writes the same lines), and
-``looks.md`` tabulates them.
+against the look's boundaries (``student.rule_boundaries``: for the t); a cell that reads is
+closed; the family stops at its maximum or once no cell is open. Every look of every cell is a
+line of ``looks.jsonl`` (rewritten whole after each look: a resumed run reads the same rows and
+so writes the same lines), and ``looks.md`` tabulates them.
 
 A run records what it began with in ``plan.json`` (the plan file's sha256 and the code's
 identity, :func:`code_identity`); resuming with either changed is refused in one line saying
@@ -29,10 +29,10 @@ from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ConfigError, ResultsError
 from d3dwa_bullet.evaluation.page_width import split_columns
 from d3dwa_bullet.evaluation.paired import Row
-from d3dwa_bullet.evaluation.plans.boundaries import boundaries
 from d3dwa_bullet.evaluation.plans.looks import DECISIONS, ESTIMATORS, INCONCLUSIVE, OPEN, decisions
 from d3dwa_bullet.evaluation.plans.order import layout_order
 from d3dwa_bullet.evaluation.plans.plan_file import Cell, Family, Plan
+from d3dwa_bullet.evaluation.plans.student import rule_boundaries
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.loading import load_json
 
@@ -117,8 +117,7 @@ def run_plan(
     check_resume(out, plan, code)
     margin, records = plan.margins[plan.headline], []
     for family, order in zip(plan.families, orders, strict=True):
-        t = np.asarray(family.fractions)
-        bound_d, bound_t = boundaries(t, plan.alpha / 2), boundaries(t, plan.alpha)
+        bound_d, bound_t = rule_boundaries(family.looks, family.maximum, plan.alpha)
         open_cells = [(c, p) for c in plan.cells for p in plan.profiles]
         asked: set[Key] = set()
         for k, n in enumerate(family.looks):

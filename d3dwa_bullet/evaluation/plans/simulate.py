@@ -2,18 +2,20 @@
 
 :func:`simulate` draws ``replicates`` cells of n layouts whose per-layout differences are
 N(true, sd), reads each at k equally spaced looks by the plan's rule (``looks.decisions`` on
-``looks.prefix_estimates``, Lan-DeMets O'Brien-Fleming boundaries at alpha / 2 each way and
-alpha for TOST) and returns each cell's reading and the look it came at. Vectorised over the
-replicates: 20,000 cells of 200 layouts take about a second. Used by the simulation tests and
-``tools/experiments/sequential_check.py`` (docs/design/sequential-plans.md).
+``looks.prefix_estimates``, Lan-DeMets O'Brien-Fleming boundaries for the t,
+``student.rule_boundaries``, at alpha / 2 each way and alpha for TOST) and returns each cell's
+reading and the look it came at. Vectorised over the replicates: 20,000 cells of 200 layouts
+take about a second, plus a few seconds for a new set of looks' boundaries (then cached). Used
+by the simulation tests and ``tools/experiments/sequential_check.py``
+(docs/design/sequential-plans.md).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from d3dwa_bullet.evaluation.plans.boundaries import boundaries
 from d3dwa_bullet.evaluation.plans.looks import decisions, first_reading, prefix_estimates
+from d3dwa_bullet.evaluation.plans.student import rule_boundaries
 
 
 def simulate(
@@ -31,7 +33,7 @@ def simulate(
     round(j n / k) layouts, j = 1..k."""
     d = np.random.default_rng(seed).normal(true, sd, size=(replicates, n))
     looks = np.round(np.arange(1, k + 1) / k * n).astype(int)
-    t = looks / n
     diff, se, df = prefix_estimates(d, looks)
-    codes = decisions(diff, se, df, margin, boundaries(t, alpha / 2), boundaries(t, alpha))
+    bound_d, bound_t = rule_boundaries(looks, n, alpha)
+    codes = decisions(diff, se, df, margin, bound_d, bound_t)
     return first_reading(codes)
