@@ -27,6 +27,8 @@ import importlib
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Protocol, Self
 
+import numpy as np
+
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.params import RobotLimits, SimParams
 from d3dwa_bullet.sim.lidar_params import LidarParams
@@ -34,8 +36,6 @@ from d3dwa_bullet.timing import perf
 from d3dwa_bullet.world.model import Box, Cylinder, World
 
 if TYPE_CHECKING:  # annotations only: importing either backend loads its engine
-    import numpy as np
-
     from d3dwa_bullet.sim.estimator import PoseEstimator
     from d3dwa_bullet.sim.noise import NoiseModel
     from d3dwa_bullet.sim.odometry import WheelOdometry
@@ -222,6 +222,13 @@ class BackendBase:
         """(v, w) clipped to the velocity limits and to what the accelerations allow this period
         (:func:`limit_command`)."""
         return limit_command(self.limits, self.sim.control_period, self.command, v, w)
+
+    def _take_command(self, v: float, w: float) -> np.ndarray:
+        """Start a period under command (v, w): the noise layer's latency, then the limits (the
+        result kept as ``self.command``); returns the wheels' slip ratios this period, (2,)."""
+        cmd = self.noise.delay((v, w)) if self.noisy else (v, w)
+        self.command = self.limit_command(*cmd)
+        return self.noise.wheel_slip_ratio() if self.noisy else np.zeros(2)
 
     def _fuse(self, t: float, odom_twist: tuple[float, float], w_true: float) -> None:
         """Fuse the readings of the period ending at t (s): odometry (v, w) and the true mean

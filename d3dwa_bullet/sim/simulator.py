@@ -252,9 +252,7 @@ class Simulator(BackendBase):
     def step(self, v: float, w: float) -> tuple[float, float]:
         """Run one control period under command (v, w). Returns the command applied."""
         clock, t = self.clock, perf()
-        cmd = self.noise.delay((v, w)) if self.noisy else (v, w)
-        self.command = self.limit_command(*cmd)
-        slip = self.noise.wheel_slip_ratio() if self.noisy else np.zeros(2)
+        slip = self._take_command(v, w)
         t = clock.charge("noise", t)
         self._apply_wheels(*self.command, slip)
         p.stepSimulation(physicsClientId=self.client)
