@@ -32,6 +32,7 @@ from d3dwa_bullet.evaluation.recipe import (
 )
 from d3dwa_bullet.evaluation.style_tables import style_of
 from d3dwa_bullet.world.barn_difficulty import TERCILE_GROUPS
+from d3dwa_bullet.world.barn_style import GROUP as BARN_STYLE
 
 FAMILIES = ("BARN", "R-style")
 """The headline's world families, in the tables' order."""
@@ -40,9 +41,10 @@ POOLED = "pooled"
 
 
 def family_of(row: Row) -> str | None:
-    """A sweep row's world family: BARN for a BARN world (its tercile group), R-style for a
-    generated layout with a style; None for any other row."""
-    if row.get("layout") in TERCILE_GROUPS:
+    """A sweep row's world family: BARN for a BARN world (its tercile group) or a fresh
+    BARN-style one (issue 79: one family, BARN's recipe), R-style for a generated layout with a
+    style; None for any other row."""
+    if row.get("layout") in TERCILE_GROUPS or row.get("layout") == BARN_STYLE:
         return "BARN"
     return "R-style" if style_of(row) else None
 

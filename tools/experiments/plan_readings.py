@@ -115,6 +115,18 @@ PLANS = {
             *((m, m.removesuffix("-barn")) for m in _BARN),
         ),
     ),  # fmt: skip
+    "recipes": Plan(
+        "docs/pilots/recipes/plan.md",
+        (
+            ("d3dwa", "d3dwa-weights"),
+            ("d3dwa-dr", "d3dwa"),
+            ("d3dwa-dr", "dwa3"),
+            ("d3dwa", "random@10"),
+            ("d3dwa-dr", "random@10"),
+            ("d3dwa-weights", "random-weights@10"),
+        ),
+        MARGINS | {"success": 0.05},
+    ),  # fmt: skip
     "barn-trained-r-style": Plan(
         "docs/pilots/barn-trained/plan.md", tuple((m, m.removesuffix("-barn")) for m in _BARN)
     ),
