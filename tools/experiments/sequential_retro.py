@@ -15,7 +15,8 @@ every layout), whether they agree, and over ``--orders`` further orders (seeds o
         --plan docs/pilots/yardstick-barn/sequential-retro.yaml --orders 200
 
 Only the ``policies`` question replays here (each side averaged over its seeds on a layout, the
-fixed-N reading's question); a ``recipe`` cell is refused until its estimator is wired.
+fixed-N reading's question); a ``recipe`` cell is refused until its estimator is wired, and so is a
+plan naming a multiplicity control (each cell replays at the plan's alpha).
 """
 
 from __future__ import annotations
@@ -78,6 +79,10 @@ def replay(rows: Rows, plan: Plan, orders: int) -> dict[str, Any]:
         raise ConfigError(
             f"cell {bad[0].a},{bad[0].b}: question {bad[0].question!r} does not replay here "
             "(only 'policies': its estimator is not wired)"
+        )
+    if plan.multiplicity != "none":
+        raise ConfigError(
+            f"multiplicity {plan.multiplicity}: the retro-check replays each cell at alpha (none) only"
         )
     metric, margin = plan.headline, plan.margins[plan.headline]
     count: dict[tuple[str, str, str], int] = defaultdict(int)  # (method, profile, world) -> rows

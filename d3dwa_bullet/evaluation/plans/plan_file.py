@@ -18,12 +18,15 @@ A plan fixes before its first episode (docs/design/sequential-plans.md):
   training seeds fixed) or ``recipe`` (the training seed a random effect);
 - ``seeds`` (optional): {method: N}, the training seeds each learned method brings: its N
   lowest-numbered seed folders, fixed before any episode (``plan_seeds.py`` checks the folder
-  holds them); when given, every learned side of a ``recipe`` cell is listed.
+  holds them); when given, every learned side of a ``recipe`` cell is listed;
+- ``multiplicity`` (optional): ``none`` (the default: every cell at alpha), ``bonferroni`` or
+  ``holm`` over the plan's m cells, a cell being (pair, profile, family) (``recycling.py``).
 
 Bad input is a ConfigError of one line naming the file, the field and the value: a missing or
 unknown field, a margin not a positive finite number, an alpha outside (0, 0.5), looks that do
 not increase, a maximum below the first look (or a look beyond it), a seed count that is not a
-whole number >= 1, a fixed method (no training seed) or one no cell names listed in ``seeds``.
+whole number >= 1, a fixed method (no training seed) or one no cell names listed in ``seeds``,
+an unknown multiplicity control.
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ from typing import Any
 
 from d3dwa_bullet.errors import ConfigError, D3DWAError
 from d3dwa_bullet.evaluation.paired import METRICS, MIN_LAYOUTS
+from d3dwa_bullet.evaluation.plans.recycling import MULTIPLICITY
 from d3dwa_bullet.evaluation.recipe import QUESTIONS
 from d3dwa_bullet.io import read_text
 from d3dwa_bullet.limits import MAX_DOCUMENT_BYTES
@@ -47,7 +51,7 @@ SPENDING = ("lan-demets-obrien-fleming",)
 """The alpha-spending functions a plan may name."""
 FIELDS = ("name", "order_seed", "alpha", "spending", "headline", "margins", "profiles",
           "families", "cells")  # fmt: skip
-OPTIONAL = ("seeds",)
+OPTIONAL = ("seeds", "multiplicity")
 """Fields a plan may leave out (a plan without them reads as before they existed)."""
 FAMILY_FIELDS = ("strata", "looks", "maximum")
 CELL_FIELDS = ("a", "b", "question")
@@ -99,11 +103,18 @@ class Plan:
     """{learned method: the training seeds it brings}; empty: every seed its folder holds."""
     source: str = ""
     """Where the plan came from (its file), for messages."""
+    multiplicity: str = "none"
+    """How alpha is shared among the cells (one of ``recycling.MULTIPLICITY``)."""
 
     @property
     def methods(self) -> tuple[str, ...]:
         """Every method a cell names, in the cells' order."""
         return tuple(dict.fromkeys(m for c in self.cells for m in (c.a, c.b)))
+
+    @property
+    def cell_count(self) -> int:
+        """m: the plan's cells, each (pair, profile, family)."""
+        return len(self.cells) * len(self.profiles) * len(self.families)
 
 
 def _fields(
@@ -263,9 +274,14 @@ def check_plan(data: Any, source: str, digest: str = "") -> Plan:
     if len({(c.a, c.b) for c in cells}) != len(cells):
         raise ConfigError(f"{source}: cells: a pair is given twice")
     seeds = _seeds(d["seeds"], cells, source) if "seeds" in d else {}
+    multiplicity = d.get("multiplicity", "none")
+    if multiplicity not in MULTIPLICITY:
+        raise ConfigError(
+            f"{source}: multiplicity must be one of {', '.join(MULTIPLICITY)}, got {multiplicity!r}"
+        )
     return Plan(_name(d["name"], f"{source}: name"), seed, float(alpha), d["spending"], d["headline"],
                 margins, _names(d["profiles"], f"{source}: profiles"), families, tuple(cells),
-                digest, seeds, source)  # fmt: skip
+                digest, seeds, source, multiplicity)  # fmt: skip
 
 
 def load_plan(path: str | Path) -> Plan:
