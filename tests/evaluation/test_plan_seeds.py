@@ -8,10 +8,10 @@ from typing import Any
 
 import pytest
 
-from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.errors import ConfigError, ResultsError
 from d3dwa_bullet.evaluation import policy_runs
 from d3dwa_bullet.evaluation.plans import check_plan
-from d3dwa_bullet.evaluation.plans.plan_seeds import plan_seed_spec, with_plan_seeds
+from d3dwa_bullet.evaluation.plans.plan_seeds import plan_seed_rows, plan_seed_spec, with_plan_seeds
 from d3dwa_bullet.evaluation.policy_runs import method_runs, per_method_seeds
 from d3dwa_bullet.evaluation.sweep_settings import SweepSettings
 
@@ -122,3 +122,27 @@ def test_per_method_policy_seeds_are_parsed_and_checked(root: Path) -> None:
                        ("d3dwa=1", "has no seed-1")]:  # fmt: skip
         with pytest.raises(ConfigError, match=says):
             method_runs(("d3dwa", "d3dwa-weights", "dwa3"), None, spec)
+
+
+def test_a_replayed_plan_keeps_each_methods_lowest_seeds_in_the_rows() -> None:
+    rows = [{"method": m, "policy_seed": k, "world": w} for w in ("a", "b")
+            for m, k in [("d3dwa", 4), ("d3dwa", 1), ("d3dwa", 9), ("d3dwa-weights", 0), ("d3dwa-weights", 2),
+                         ("d3dwa-weights", 3), ("dwa3", None)]]  # fmt: skip
+    kept = plan_seed_rows(rows, check_plan(PLAN, "plan.yaml"))
+    assert sorted({(r["method"], r["policy_seed"]) for r in kept}, key=str) == sorted(
+        {
+            ("d3dwa", 1),
+            ("d3dwa", 4),
+            ("d3dwa", 9),
+            ("d3dwa-weights", 0),
+            ("d3dwa-weights", 2),
+            ("dwa3", None),
+        },
+        key=str,
+    )
+    assert len(kept) == 12
+    with pytest.raises(
+        ResultsError,
+        match="plan plan.yaml: the rows hold 2 training seeds of d3dwa, the plan needs 3",
+    ):
+        plan_seed_rows([r for r in rows if r["policy_seed"] != 9], check_plan(PLAN, "plan.yaml"))

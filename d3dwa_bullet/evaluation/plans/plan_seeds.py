@@ -7,13 +7,16 @@ its policies (``policy_runs.policy_folder``). :func:`with_plan_seeds` turns them
 ``--policy-seeds`` (the per-method form ``d3dwa=0,1,2;d3dwa-dr=0,1``), so the sweep runs those
 seeds and no other, and meta.json records them. A folder holding fewer is refused in one line
 saying how many it has and how many the plan needs (docs/design/sequential-plans.md#seeds).
+:func:`plan_seed_rows` keeps a finished sweep's rows to the same seeds (a plan replayed on it).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
+from typing import Any
 
-from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.errors import ConfigError, ResultsError
 from d3dwa_bullet.evaluation.plans.plan_file import Plan
 from d3dwa_bullet.evaluation.policy_runs import ALL, policy_folder
 from d3dwa_bullet.evaluation.sweep_settings import SweepSettings
@@ -53,3 +56,24 @@ def with_plan_seeds(
             "seeds (seeds:); leave --policy-seeds out"
         )
     return replace(settings, policy_seeds=spec)
+
+
+def plan_seed_rows(rows: Sequence[Mapping[str, Any]], plan: Plan) -> list[Mapping[str, Any]]:
+    """rows (each with "method" and "policy_seed") with every method of the plan's ``seeds``
+    kept to its N lowest-numbered training seeds among them, the others as they are; ResultsError
+    naming the method, the seeds the rows hold and the seeds the plan needs when they hold fewer."""
+    keep = {}
+    for method, n in plan.seeds.items():
+        have = sorted(
+            {
+                int(r["policy_seed"])
+                for r in rows
+                if r["method"] == method and r.get("policy_seed") is not None
+            }
+        )
+        if len(have) < n:
+            raise ResultsError(
+                f"plan {plan.source or plan.name}: the rows hold {len(have)} training seeds of {method}, the plan needs {n}"
+            )
+        keep[method] = set(have[:n])
+    return [r for r in rows if r["method"] not in keep or r.get("policy_seed") in keep[r["method"]]]
