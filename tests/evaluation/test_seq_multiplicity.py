@@ -76,13 +76,14 @@ def test_a_cell_reading_a_difference_and_equivalence_passes_its_level_within_the
     code, passed, level = read_look(
         d, se, df, 0.03, is_open, np.zeros(1, int), Levels("holm", 0.05, 3), bounds, 1
     )
-    assert code.tolist() == [[A_BETTER] * 3] and passed.tolist() == [3] and level.tolist() == [0.05]
+    assert code.tolist() == [[A_BETTER] * 3] and passed.tolist() == [3]
+    assert np.allclose(level, [[0.05 / 3, 0.05 / 2, 0.05]])  # each read at the level it came at
     code, passed, level = read_look(d, se, df, 0.03, is_open, np.zeros(1, int), Levels("bonferroni", 0.05, 3),
                                     bounds, 1)  # fmt: skip
     assert code.tolist() == [[A_BETTER, EQUIVALENT, EQUIVALENT]] and passed.tolist() == [
         0
     ]  # no difference shown
-    assert np.isclose(level[0], 0.05 / 3)
+    assert np.allclose(level, 0.05 / 3)
     # read only as a difference (outside the margin): the cell keeps its level, nothing passes
     code, passed, _ = read_look(
         d + 0.05, se, df, 0.03, is_open, np.zeros(1, int), Levels("holm", 0.05, 3), bounds, 1
@@ -112,9 +113,11 @@ def test_a_holm_run_records_each_cells_level_at_each_look(tmp_path: Path) -> Non
     strata = {f"R1-style-s{i}": "R1-style" for i in range(20)}
     records = run_plan(check_plan(PLAN, "plan.yaml", "a" * 64), strata, Source(), tmp_path, "0.1.0")
     first = [r for r in records if r["look"] == 1]
-    # both 'mid' cells read and pass at look 1: the two 'close' cells are re-read at 0.05 / 2
+    # both 'mid' cells read at 0.05 / 4 and pass at look 1: the 'close' cells are re-read at 0.05 / 2
     assert {(r["a"], r["profile"]): r["decision"] for r in first}[("mid", "none")] == "A better"
-    assert {r["level"] for r in first} == {0.025}
+    assert {r["level"] for r in first if r["a"] == "mid"} == {0.0125}
+    assert {r["level"] for r in first if r["decision"] == "open"} == {0.025}
+    assert {r["level"] for r in records if r["look"] == 2} == {0.025}
     assert "| level |" in (tmp_path / LOOKS_PAGE).read_text().replace("level  ", "level ")
     assert "multiplicity holm over 4 cells" in (tmp_path / LOOKS_PAGE).read_text()
     (tmp_path / "n").mkdir()

@@ -94,20 +94,25 @@ def read_look(
     """The cells open at look k read at their levels: difference, se, df and is_open (R, C) of
     R replicates (a plan run: R = 1) of C cells, passed (R,) the cells passed before this look.
     Returns (code (R, C): OPEN, A_BETTER, B_BETTER or EQUIVALENT, OPEN where not is_open;
-    passed (R,) after the look; level (R,) every open cell was read at). The open cells are
-    re-read at the raised level until no further one passes."""
+    passed (R,) after the look; level (R, C): the level each cell's reading came at, the look's
+    last for a cell left open). The open cells are re-read at the raised level until no further
+    one passes; a raise only adds crossings, so a reading moves from open to read, or from
+    equivalent to a difference (read with its equivalence: it passes)."""
     passed0 = np.asarray(passed, dtype=int)
-    now = passed0.copy()
+    now, code = passed0.copy(), np.full(np.shape(is_open), OPEN)
+    at = np.zeros(np.shape(is_open))
     while True:
         level = levels.level(now)
         bd, bt = bounds.look(level, k)
-        code = np.where(
+        got = np.where(
             is_open, decisions(difference, se, df, margin, bd[:, None], bt[:, None]), OPEN
         )
+        changed = (got != code) | (got == OPEN)
+        code, at = got, np.where(changed, level[:, None], at)
         both = np.isin(code, (A_BETTER, B_BETTER)) & (
             equivalence_z(difference, se, df, margin) >= bt[:, None]
         )
         after = passed0 + both.sum(axis=-1) if levels.rule == "holm" else passed0
         if np.array_equal(after, now):
-            return code, now, level
+            return code, now, at
         now = after

@@ -135,15 +135,16 @@ def run_plan(
                                              levels, bounds, k)  # fmt: skip
             bound_d, bound_t = bounds.look(level, k)
             still = []
-            for (cell, profile), got, (d, se, df) in zip(
-                open_cells, codes[0].tolist(), est[:, 0, :].T, strict=True
+            for i, ((cell, profile), got) in enumerate(
+                zip(open_cells, codes[0].tolist(), strict=True)
             ):
+                d, se, df = est[:, 0, i]
                 if got == OPEN and k == len(family.looks) - 1:
                     got = INCONCLUSIVE
                 records.append({"family": family.name, "a": cell.a, "b": cell.b, "question": cell.question,
                                 "profile": profile, "look": k + 1, "layouts": n, "difference": float(d),
-                                "se": float(se), "df": float(df), "level": float(level[0]),
-                                "bound_difference": float(bound_d[0]), "bound_tost": float(bound_t[0]),
+                                "se": float(se), "df": float(df), "level": float(level[0, i]),
+                                "bound_difference": float(bound_d[0, i]), "bound_tost": float(bound_t[0, i]),
                                 "decision": DECISIONS[got]})  # fmt: skip
                 if got == OPEN:
                     still.append((cell, profile))
