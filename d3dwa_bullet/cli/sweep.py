@@ -33,6 +33,7 @@ from d3dwa_bullet.cli.plan_options import add_global_plan_option
 from d3dwa_bullet.cli.suites import add_suite_options, suite_world_names
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.plans.plan_file import Plan, check_fits, load_plan
+from d3dwa_bullet.evaluation.plans.plan_seeds import with_plan_seeds
 from d3dwa_bullet.evaluation.results import read_meta
 from d3dwa_bullet.evaluation.reuse import reuse_arg, reused_lines
 from d3dwa_bullet.evaluation.sweep_settings import (
@@ -78,7 +79,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--policy-seeds",
         default="all",
-        help="training seeds of each learned method: 'all' (default) or a list like 0,2",
+        help="training seeds of each learned method: 'all' (default), a list like 0,2, or per method "
+        "like 'd3dwa=0-4;d3dwa-dr=0,1' (a --plan with seeds: sets them)",
     )
     p.add_argument(
         "--plan",
@@ -118,6 +120,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     plan = load_plan(args.plan) if args.plan else None
     if plan is not None:
         check_fits(plan, settings.methods, settings.profiles)
+        settings = with_plan_seeds(settings, plan, policy)  # each method's seeds, or a refusal
     # a bad or empty world file is refused before any episode
     worlds = [load_cli_world(w, args.allow_empty, warn=False) for w in settings.worlds]
     # start-up cost: the sweep's episodes import the simulator (pybullet) and the planner (numba)

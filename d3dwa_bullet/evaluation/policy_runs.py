@@ -2,8 +2,10 @@
 
 A learned method's result is its distribution over training seeds
 (docs/design/learning-protocol.md#learning-protocol), so an evaluation drives every ``seed-<k>/`` of the
-method's policy folder (``policies/<method>/``, or ``--policy DIR``) unless
-``--policy-seeds`` names some of them. A folder without seed folders is one policy (a
+method's policy folder (``policies/<method>/``, or ``--policy DIR``: :func:`policy_folder`) unless
+``--policy-seeds`` names some of them: the same seeds of every learned method (``0-4``), or per
+method (``d3dwa=0-14;d3dwa-dr=0-4``, a method not named runs all of its seeds: what a sequential
+plan's ``seeds`` field becomes, ``plans/plan_seeds.py``). A folder without seed folders is one policy (a
 checkpoint, or one ``seed-<k>`` folder given as ``--policy``). A fixed or reference method
 (``random``) is one run with no policy.
 
@@ -88,6 +90,31 @@ def check_one_experiment(folder: Path, seeds: dict[int, Path]) -> None:
             )
 
 
+def policy_folder(method: str, policy: str | None = None) -> Path:
+    """The folder of a learned method's policies: ``policy`` (``--policy``), else the shipped
+    ``policies/<method>/``; what an evaluation drives and a plan's seeds are counted in."""
+    return Path(policy) if policy is not None else default_policy_path(method)
+
+
+def per_method_seeds(spec: str | None) -> dict[str, str] | None:
+    """{method: its seeds} of a per-method ``--policy-seeds`` ('d3dwa=0-14;d3dwa-dr=0,1'); None
+    for a spec of every method ('all', '0-4'). ConfigError naming a part that is not
+    method=seeds, or a method named twice."""
+    if spec is None or "=" not in spec:
+        return None
+    found: dict[str, str] = {}
+    for part in spec.split(";"):
+        name, sep, seeds = (x.strip() for x in part.partition("="))
+        if not (sep and name and seeds):
+            raise ConfigError(
+                f"--policy-seeds: {part!r} in {spec!r} is not method=seeds (like d3dwa=0-4)"
+            )
+        if name in found:
+            raise ConfigError(f"--policy-seeds: {spec!r} names {name} twice")
+        found[name] = seeds
+    return found
+
+
 def select_seeds(folder: Path, spec: str | None) -> dict[int, Path]:
     """The seed folders of folder named by spec ('all' or None: every one; '0,2', '0-3')."""
     shipped = seed_dirs(folder)
@@ -107,21 +134,30 @@ def method_runs(
     """The runs of each method, in method order then seed order (module docstring).
 
     policy: ``--policy`` (one learned method only; the caller checks). policy_seeds:
-    ``--policy-seeds``; ConfigError if it names a seed some learned method's folder lacks,
-    or if no method has seed folders to choose from."""
+    ``--policy-seeds``, for every learned method or per method (:func:`per_method_seeds`);
+    ConfigError if it names a seed some learned method's folder lacks, a method that is not a
+    learned one here, or if no method has seed folders to choose from."""
     runs: list[PolicyRun] = []
     chosen = False
+    per_method = per_method_seeds(policy_seeds)
+    for name in per_method or ():
+        if name not in methods or not needs_policy(name):
+            raise ConfigError(
+                f"--policy-seeds: {name} is not a learned method of this run ({', '.join(methods)})"
+            )
     for method in methods:
         if not needs_policy(method):
             runs.append(PolicyRun(method))
             continue
-        folder = Path(policy) if policy is not None else default_policy_path(method)
+        folder = policy_folder(method, policy)
         seeds = seed_dirs(folder)
         if not seeds:  # one policy: a checkpoint, a seed-<k> folder, or an old shipped one
             runs.append(PolicyRun(method, seed_of(folder) if policy is not None else None, policy))
             continue
         chosen = True
-        selected = select_seeds(folder, policy_seeds)
+        selected = select_seeds(
+            folder, policy_seeds if per_method is None else per_method.get(method, ALL)
+        )
         check_one_experiment(folder, selected)
         runs += [PolicyRun(method, k, str(path)) for k, path in selected.items()]
     if policy_seeds is not None and policy_seeds.strip() != ALL and not chosen:
@@ -139,7 +175,7 @@ def policy_digests(runs: Sequence[PolicyRun]) -> dict[str, str]:
     for run in runs:
         if not needs_policy(run.method):
             continue
-        folder = Path(run.policy) if run.policy is not None else default_policy_path(run.method)
+        folder = policy_folder(run.method, run.policy)
         name = run.method if run.policy_seed is None else f"{run.method}/seed-{run.policy_seed}"
         digests[name] = _data_digest(folder)
     return digests

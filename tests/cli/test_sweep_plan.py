@@ -82,3 +82,39 @@ def test_a_bad_plan_is_one_line_before_any_episode(
     err = capsys.readouterr().err
     assert says in err and err.count("\n") == 1
     assert not (tmp_path / "run" / "results.csv").exists()
+
+
+def _dr_args(out: Path, plan: Path, *extra: str) -> list[str]:
+    return ["sweep", "--methods", "d3dwa-dr,dwa3", "--worlds", "", "--styles", "R1-style", "--layouts", "4",
+            "--axes", "", "--profiles", "", "--seeds", "1", "--time-limit", "1", "--workers", "1",
+            "--out", str(out), "--plan", str(plan), *extra]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("seeds", "extra", "says"),
+    [
+        ({"d3dwa-dr": 15}, (), "d3dwa-dr has 5 training seeds ("),
+        ({"d3dwa-dr": 15}, (), "policies/d3dwa-dr), the plan needs 15"),
+        (
+            {"d3dwa-dr": 2},
+            ("--policy-seeds", "0,1"),
+            "the plan {plan} names its training seeds (seeds:); leave",
+        ),
+    ],
+)
+def test_a_plan_needing_more_training_seeds_than_the_folder_holds_is_refused_before_any_episode(
+    seeds: dict[str, int],
+    extra: tuple[str, ...],
+    says: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    plan = tmp_path / "plan.yaml"
+    cells = [{"a": "d3dwa-dr", "b": "dwa3", "question": "recipe"}]
+    plan.write_text(yaml.safe_dump(PLAN | {"cells": cells, "seeds": seeds}))
+    assert main(_dr_args(tmp_path / "run", plan, *extra)) == 2
+    err = capsys.readouterr().err
+    says = says.format(plan=plan)
+    assert f"plan {plan}: d3dwa-dr" in err or "--policy-seeds 0,1" in err
+    assert says in err and err.count("\n") == 1
+    assert not (tmp_path / "run" / "results.csv").exists()

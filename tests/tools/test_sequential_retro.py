@@ -77,6 +77,10 @@ def test_refusals() -> None:
     recipe = PLAN | {"cells": [{"a": "good", "b": "base", "question": "recipe"}]}
     with pytest.raises(ConfigError, match="question 'recipe' does not replay here"):
         replay(rows, check_plan(recipe, "plan.yaml"), orders=0)
+    with pytest.raises(
+        ConfigError, match="multiplicity holm: the retro-check replays each cell at alpha"
+    ):
+        replay(rows, check_plan(PLAN | {"multiplicity": "holm"}, "plan.yaml"), orders=0)
 
 
 def test_bad_input_is_one_line_and_exit_two(

@@ -93,6 +93,14 @@ def _ratio(x: np.ndarray, se: np.ndarray) -> np.ndarray:
     return np.where(se > 0, r, np.where(x > 0, np.inf, -np.inf))
 
 
+def equivalence_z(difference: ArrayLike, se: ArrayLike, df: ArrayLike, margin: float) -> np.ndarray:
+    """The smaller of TOST's two one-sided z, (difference + margin) / se and (margin -
+    difference) / se, each through the t's tail at df (elementwise): equivalence reads when it
+    is at or above the TOST boundary."""
+    d, s = np.asarray(difference, dtype=float), np.asarray(se, dtype=float)
+    return np.minimum(z_of(_ratio(d + margin, s), df), z_of(_ratio(margin - d, s), df))
+
+
 def decisions(
     difference: ArrayLike, se: ArrayLike, df: ArrayLike, margin: float,
     bound_difference: ArrayLike, bound_tost: ArrayLike,
@@ -101,9 +109,8 @@ def decisions(
     boundaries; every argument broadcasts to one shape (e.g. (replicates, looks))."""
     d, s = np.asarray(difference, dtype=float), np.asarray(se, dtype=float)
     z_a, z_b = z_of(_ratio(d, s), df), z_of(_ratio(-d, s), df)
-    z_low, z_high = z_of(_ratio(d + margin, s), df), z_of(_ratio(margin - d, s), df)
     code = np.full(np.broadcast(d, s, bound_difference).shape, OPEN)
-    code = np.where(np.minimum(z_low, z_high) >= bound_tost, EQUIVALENT, code)
+    code = np.where(equivalence_z(d, s, df, margin) >= bound_tost, EQUIVALENT, code)
     code = np.where(z_b >= bound_difference, B_BETTER, code)
     return np.where(z_a >= bound_difference, A_BETTER, code)
 

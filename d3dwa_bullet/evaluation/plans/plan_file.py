@@ -15,11 +15,18 @@ A plan fixes before its first episode (docs/design/sequential-plans.md):
   apart, each with its strata (interleaved in the order), its looks (increasing layout counts)
   and its maximum (the last look, appended when the looks stop short of it);
 - ``cells``: [{a, b, question}]: the pairs A, B and what each reads: ``policies`` (the
-  training seeds fixed) or ``recipe`` (the training seed a random effect).
+  training seeds fixed) or ``recipe`` (the training seed a random effect);
+- ``seeds`` (optional): {method: N}, the training seeds each learned method brings: its N
+  lowest-numbered seed folders, fixed before any episode (``plan_seeds.py`` checks the folder
+  holds them); when given, every learned side of a ``recipe`` cell is listed;
+- ``multiplicity`` (optional): ``none`` (the default: every cell at alpha), ``bonferroni`` or
+  ``holm`` over the plan's m cells, a cell being (pair, profile, family) (``recycling.py``).
 
 Bad input is a ConfigError of one line naming the file, the field and the value: a missing or
 unknown field, a margin not a positive finite number, an alpha outside (0, 0.5), looks that do
-not increase, a maximum below the first look (or a look beyond it).
+not increase, a maximum below the first look (or a look beyond it), a seed count that is not a
+whole number >= 1, a fixed method (no training seed) or one no cell names listed in ``seeds``,
+an unknown multiplicity control.
 """
 
 from __future__ import annotations
@@ -27,21 +34,25 @@ from __future__ import annotations
 import hashlib
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from d3dwa_bullet.errors import ConfigError
+from d3dwa_bullet.errors import ConfigError, D3DWAError
 from d3dwa_bullet.evaluation.paired import METRICS, MIN_LAYOUTS
+from d3dwa_bullet.evaluation.plans.recycling import MULTIPLICITY
 from d3dwa_bullet.evaluation.recipe import QUESTIONS
 from d3dwa_bullet.io import read_text
 from d3dwa_bullet.limits import MAX_DOCUMENT_BYTES
 from d3dwa_bullet.loading import parse_yaml
+from d3dwa_bullet.method_specs import method_family
 
 SPENDING = ("lan-demets-obrien-fleming",)
 """The alpha-spending functions a plan may name."""
 FIELDS = ("name", "order_seed", "alpha", "spending", "headline", "margins", "profiles",
           "families", "cells")  # fmt: skip
+OPTIONAL = ("seeds", "multiplicity")
+"""Fields a plan may leave out (a plan without them reads as before they existed)."""
 FAMILY_FIELDS = ("strata", "looks", "maximum")
 CELL_FIELDS = ("a", "b", "question")
 
@@ -88,19 +99,34 @@ class Plan:
     families: tuple[Family, ...]
     cells: tuple[Cell, ...]
     digest: str
+    seeds: Mapping[str, int] = field(default_factory=dict)
+    """{learned method: the training seeds it brings}; empty: every seed its folder holds."""
+    source: str = ""
+    """Where the plan came from (its file), for messages."""
+    multiplicity: str = "none"
+    """How alpha is shared among the cells (one of ``recycling.MULTIPLICITY``)."""
 
     @property
     def methods(self) -> tuple[str, ...]:
         """Every method a cell names, in the cells' order."""
         return tuple(dict.fromkeys(m for c in self.cells for m in (c.a, c.b)))
 
+    @property
+    def cell_count(self) -> int:
+        """m: the plan's cells, each (pair, profile, family)."""
+        return len(self.cells) * len(self.profiles) * len(self.families)
 
-def _fields(value: Any, names: Sequence[str], where: str) -> Mapping[str, Any]:
+
+def _fields(
+    value: Any, names: Sequence[str], where: str, optional: Sequence[str] = ()
+) -> Mapping[str, Any]:
     if not isinstance(value, Mapping):
         raise ConfigError(f"{where}: must be a mapping of {', '.join(names)}, got {value!r}")
-    unknown = [k for k in value if k not in names]
+    unknown = [k for k in value if k not in names and k not in optional]
     if unknown:
-        raise ConfigError(f"{where}: unknown field {unknown[0]!r} (fields: {', '.join(names)})")
+        raise ConfigError(
+            f"{where}: unknown field {unknown[0]!r} (fields: {', '.join([*names, *optional])})"
+        )
     missing = [k for k in names if k not in value]
     if missing:
         raise ConfigError(f"{where}: missing field {missing[0]!r}")
@@ -163,10 +189,46 @@ def _margin(metric: str, value: Any, where: str) -> float:
     return float(value)
 
 
+def _family_of(method: str, where: str) -> str:
+    try:
+        return method_family(method)
+    except D3DWAError as err:  # an unknown name
+        raise ConfigError(f"{where}: {err}") from err
+
+
+def _seeds(value: Any, cells: Sequence[Cell], source: str) -> dict[str, int]:
+    """{method: N} of a plan's ``seeds``, checked against its cells (the module's docstring)."""
+    if not isinstance(value, Mapping) or not value:
+        raise ConfigError(
+            f"{source}: seeds must be a non-empty mapping method: training seeds, got {value!r}"
+        )
+    named = {m for c in cells for m in (c.a, c.b)}
+    seeds = {}
+    for method, n in value.items():
+        where = f"{source}: seeds.{method}"
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            raise ConfigError(f"{where}: must be a whole number of training seeds >= 1, got {n!r}")
+        family = _family_of(str(method), where)
+        if family != "learned":
+            raise ConfigError(
+                f"{where}: {method} is a {family} method, with no training seed; list learned ones"
+            )
+        if method not in named:
+            raise ConfigError(f"{where}: no cell reads {method}")
+        seeds[str(method)] = n
+    for i, c in enumerate(cells):
+        for side in (c.a, c.b) if c.question == "recipe" else ():
+            if side not in seeds and _family_of(side, f"{source}: cells[{i}]") == "learned":
+                raise ConfigError(
+                    f"{source}: cells[{i}] reads {side} at the recipe level, but seeds does not list it"
+                )
+    return seeds
+
+
 def check_plan(data: Any, source: str, digest: str = "") -> Plan:
     """The :class:`Plan` of a parsed plan file (source names it in errors); ConfigError of
     one line naming the field and value otherwise."""
-    d = _fields(data, FIELDS, source)
+    d = _fields(data, FIELDS, source, OPTIONAL)
     seed = d["order_seed"]
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError(f"{source}: order_seed must be a whole number >= 0, got {seed!r}")
@@ -211,9 +273,15 @@ def check_plan(data: Any, source: str, digest: str = "") -> Plan:
         cells.append(Cell(a, b, c["question"]))
     if len({(c.a, c.b) for c in cells}) != len(cells):
         raise ConfigError(f"{source}: cells: a pair is given twice")
+    seeds = _seeds(d["seeds"], cells, source) if "seeds" in d else {}
+    multiplicity = d.get("multiplicity", "none")
+    if multiplicity not in MULTIPLICITY:
+        raise ConfigError(
+            f"{source}: multiplicity must be one of {', '.join(MULTIPLICITY)}, got {multiplicity!r}"
+        )
     return Plan(_name(d["name"], f"{source}: name"), seed, float(alpha), d["spending"], d["headline"],
                 margins, _names(d["profiles"], f"{source}: profiles"), families, tuple(cells),
-                digest)  # fmt: skip
+                digest, seeds, source, multiplicity)  # fmt: skip
 
 
 def load_plan(path: str | Path) -> Plan:

@@ -5,9 +5,11 @@ per family, the layouts in the plan's order; at each look the episodes the open 
 need (a method under a profile runs only while an open cell of that profile names it) are asked
 of ``run`` (every key asked so far, so a source that skips finished episodes resumes), then each
 open cell is read on the headline metric (its question's estimator, ``looks.ESTIMATORS``)
-against the look's boundaries (``student.rule_boundaries``: for the t); a cell that reads is
-closed; the family stops at its maximum or once no cell is open. Every look of every cell is a
-line of ``looks.jsonl`` (rewritten whole after each look: a resumed run reads the same rows and
+against the look's boundaries (``student.rule_boundaries``: for the t) at the cell's level (the
+plan's multiplicity control, ``recycling.read_look``: alpha, alpha / m, or Holm's recycled
+level, carried from family to family); a cell that reads is closed; the family stops at its
+maximum or once no cell is open. Every look of every cell, with its level, is a line of
+``looks.jsonl`` (rewritten whole after each look: a resumed run reads the same rows and
 so writes the same lines), and ``looks.md`` tabulates them.
 
 A run records what it began with in ``plan.json`` (the plan file's sha256 and the code's
@@ -29,10 +31,10 @@ from d3dwa_bullet import __version__
 from d3dwa_bullet.errors import ConfigError, ResultsError
 from d3dwa_bullet.evaluation.page_width import split_columns
 from d3dwa_bullet.evaluation.paired import Row
-from d3dwa_bullet.evaluation.plans.looks import DECISIONS, ESTIMATORS, INCONCLUSIVE, OPEN, decisions
+from d3dwa_bullet.evaluation.plans.looks import DECISIONS, ESTIMATORS, INCONCLUSIVE, OPEN
 from d3dwa_bullet.evaluation.plans.order import layout_order
 from d3dwa_bullet.evaluation.plans.plan_file import Cell, Family, Plan
-from d3dwa_bullet.evaluation.plans.student import rule_boundaries
+from d3dwa_bullet.evaluation.plans.recycling import LevelBounds, Levels, read_look
 from d3dwa_bullet.io import atomic_write_text
 from d3dwa_bullet.loading import load_json
 
@@ -110,14 +112,15 @@ def run_plan(
     """Run plan over the layouts of strata (layout -> its stratum) with episodes from run,
     logging to out (looks.jsonl, looks.md); returns the log's records: one per (family, cell,
     profile, look) read, {"family", "a", "b", "question", "profile", "look", "layouts",
-    "difference", "se", "df", "bound_difference", "bound_tost", "decision"}."""
+    "difference", "se", "df", "level", "bound_difference", "bound_tost", "decision"}."""
     orders = [
         _family_order(plan, family, strata) for family in plan.families
     ]  # refused before plan.json
     check_resume(out, plan, code)
     margin, records = plan.margins[plan.headline], []
+    levels, passed = Levels(plan.multiplicity, plan.alpha, plan.cell_count), np.zeros(1, dtype=int)
     for family, order in zip(plan.families, orders, strict=True):
-        bound_d, bound_t = rule_boundaries(family.looks, family.maximum, plan.alpha)
+        bounds = LevelBounds(family.looks, family.maximum)
         open_cells = [(c, p) for c in plan.cells for p in plan.profiles]
         asked: set[Key] = set()
         for k, n in enumerate(family.looks):
@@ -126,20 +129,22 @@ def run_plan(
                 need = {m for c, p in open_cells if p == profile for m in (c.a, c.b)}
                 asked |= {(layout, profile, m) for layout in order[:n] for m in need}
             rows = [r for r in run(sorted(asked)) if r["world"] in read]
+            est = np.array([_read(plan, cell, profile, [r for r in rows if r["noise"] == profile])
+                            for cell, profile in open_cells]).T[:, None, :]  # fmt: skip
+            codes, passed, level = read_look(est[0], est[1], est[2], margin, np.ones(est.shape[1:], dtype=bool), passed,
+                                             levels, bounds, k)  # fmt: skip
+            bound_d, bound_t = bounds.look(level, k)
             still = []
-            for cell, profile in open_cells:
-                here = [r for r in rows if r["noise"] == profile]
-                d, se, df = _read(plan, cell, profile, here)
-                got = int(
-                    decisions(
-                        np.array(d), np.array(se), np.array(df), margin, bound_d[k], bound_t[k]
-                    )
-                )
+            for i, ((cell, profile), got) in enumerate(
+                zip(open_cells, codes[0].tolist(), strict=True)
+            ):
+                d, se, df = est[:, 0, i]
                 if got == OPEN and k == len(family.looks) - 1:
                     got = INCONCLUSIVE
                 records.append({"family": family.name, "a": cell.a, "b": cell.b, "question": cell.question,
-                                "profile": profile, "look": k + 1, "layouts": n, "difference": d, "se": se,
-                                "df": df, "bound_difference": float(bound_d[k]), "bound_tost": float(bound_t[k]),
+                                "profile": profile, "look": k + 1, "layouts": n, "difference": float(d),
+                                "se": float(se), "df": float(df), "level": float(level[0, i]),
+                                "bound_difference": float(bound_d[0, i]), "bound_tost": float(bound_t[0, i]),
                                 "decision": DECISIONS[got]})  # fmt: skip
                 if got == OPEN:
                     still.append((cell, profile))
@@ -153,10 +158,11 @@ def run_plan(
 def _write_log(out: Path, records: Sequence[Mapping[str, Any]], plan: Plan) -> None:
     atomic_write_text(out / LOOKS_LOG, "".join(json.dumps(r) + "\n" for r in records))
     body = [[r["family"], f"`{r['a']}` vs `{r['b']}`", r["profile"], str(r["look"]), str(r["layouts"]),
-             f"{r['difference']:+.4f}", f"{r['se']:.4f}", f"{r['bound_difference']:.3f}", f"{r['bound_tost']:.3f}",
-             r["decision"]] for r in records]  # fmt: skip
-    head = ["family", "A vs B", "profile", "look", "layouts", "A - B", "se", "bound (difference)",
+             f"{r['difference']:+.4f}", f"{r['se']:.4f}", f"{r['level']:.5g}", f"{r['bound_difference']:.3f}",
+             f"{r['bound_tost']:.3f}", r["decision"]] for r in records]  # fmt: skip
+    head = ["family", "A vs B", "profile", "look", "layouts", "A - B", "se", "level", "bound (difference)",
             "bound (TOST)", "decision"]  # fmt: skip
-    table = split_columns(head, ["---"] * 4 + ["---:"] * 5 + ["---"], body, keys=3)
-    title = f"# Looks of {plan.name}\n\nHeadline {plan.headline}, margin {plan.margins[plan.headline]:g}; bounds on z.\n\n"
+    table = split_columns(head, ["---"] * 4 + ["---:"] * 6 + ["---"], body, keys=3)
+    title = (f"# Looks of {plan.name}\n\nHeadline {plan.headline}, margin {plan.margins[plan.headline]:g}; "
+             f"multiplicity {plan.multiplicity} over {plan.cell_count} cells; bounds on z.\n\n")  # fmt: skip
     atomic_write_text(out / LOOKS_PAGE, title + table + "\n")

@@ -21,6 +21,7 @@ from d3dwa_bullet.episode import EpisodeConfig
 from d3dwa_bullet.evaluation.jobs import Job, evaluate
 from d3dwa_bullet.evaluation.plans.order import stratum_of
 from d3dwa_bullet.evaluation.plans.plan_file import Plan, check_fits
+from d3dwa_bullet.evaluation.plans.plan_seeds import with_plan_seeds
 from d3dwa_bullet.evaluation.plans.run import Key, code_identity, run_plan
 from d3dwa_bullet.evaluation.results import row_key
 from d3dwa_bullet.evaluation.reuse import Reuse
@@ -40,8 +41,10 @@ def run_plan_sweep(
     command: str = "", reuse: Reuse | None = None,
 ) -> list[dict[str, Any]]:  # fmt: skip
     """Run the sweep of settings under plan into out; returns the looks' records
-    (``run.run_plan``). The profile ``none`` is the sweep's noise-free baseline."""
+    (``run.run_plan``). The profile ``none`` is the sweep's noise-free baseline; a plan with
+    ``seeds`` runs each learned method's seeds it names (``plan_seeds.with_plan_seeds``)."""
     check_fits(plan, settings.methods, settings.profiles)
+    settings = with_plan_seeds(settings, plan, policy)
     out = Path(out)
     meta, _ = sweep_meta(settings, config, policy, command)
     with locked_dir(out):
