@@ -22,9 +22,10 @@ def record(reading: dict, profile: str = "real") -> dict:
     }
 
 
-def inconclusive(needed: int | None = 95) -> dict:
+def inconclusive(needed: int | None = 95, to_equivalence: int | None = 200) -> dict:
     return {"metric": "success", "reading": "inconclusive", "why": None, "difference": 1 / 12, "low": -0.1,
-            "high": 0.267, "layouts": 12, "margin": 0.03, "needed": needed, "equivalent": False}  # fmt: skip
+            "high": 0.267, "layouts": 12, "margin": 0.03, "needed": needed, "needed_equivalence": to_equivalence,
+            "equivalent": False}  # fmt: skip
 
 
 def equivalent(reading: str = "equivalent") -> dict:
@@ -48,11 +49,13 @@ def test_the_backend_may_answer_only_where_both_metrics_are_equivalent():
     assert verdict(equivalent(), equivalent()) == "may answer"
     # a difference inside the margin is still equivalent within it (TOST rejected)
     assert verdict(equivalent("B better"), equivalent()) == "may answer"
-    assert verdict(equivalent(), inconclusive(40)) == "inconclusive (40 layouts)"
-    assert verdict(inconclusive(95), inconclusive(151)) == "inconclusive (151 layouts)"
-    assert verdict(inconclusive(None), equivalent()) == "inconclusive (no sizing)"
+    assert verdict(equivalent(), inconclusive(40, 60)) == "PyBullet: ~60 layouts to read equivalent"
+    both = verdict(inconclusive(95, 120), inconclusive(151, 80))
+    assert both == "PyBullet: ~120 layouts to read equivalent"
+    out_of_reach = verdict(inconclusive(44, None), equivalent())
+    assert out_of_reach == "PyBullet: equivalence out of reach, ~44 decide"
     outside = inconclusive() | {"reading": "A better"}
-    assert verdict(outside, equivalent()) == "differs"
+    assert verdict(outside, equivalent()) == "PyBullet: differs"
     assert verdict(None, equivalent()) == "not run"
 
 

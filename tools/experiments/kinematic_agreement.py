@@ -99,19 +99,25 @@ def short(r: dict, metric: str) -> str:
 
 
 def verdict(success: dict | None, score: dict | None) -> str:
-    """'may answer' when both readings are equivalent within their margins; else why not:
-    'differs' (a difference outside the margin), 'inconclusive (N layouts)' with the most
-    layouts either metric's sizing asks (None: never), or 'not run'."""
+    """'may answer' when both readings are equivalent within their margins (TOST rejects, a
+    difference inside the margin included); otherwise 'PyBullet' and why: 'differs' (a
+    difference that is not within the margin), '~N layouts to read equivalent' (the most the
+    repository's sizing, paired.layouts_for_equivalence at 80 % power, asks of a metric not yet
+    equivalent), or 'equivalence out of reach, ~M decide' (a mean difference at or beyond its
+    margin: no number of layouts shows equivalence then; M layouts would decide the difference);
+    'not run' without a reading."""
     if not success or not score:
         return "not run"
-    if all(r.get("equivalent") for r in (success, score)):
+    readings = (success, score)
+    if all(r.get("equivalent") for r in readings):
         return "may answer"
-    if any(r.get("reading") in ("A better", "B better") for r in (success, score)):
-        return "differs"
-    needed = [r.get("needed") for r in (success, score) if not r.get("equivalent")]
-    if any(n is None for n in needed):
-        return "inconclusive (no sizing)"
-    return f"inconclusive ({max(needed)} layouts)"
+    if any(r.get("reading") in ("A better", "B better") for r in readings):
+        return "PyBullet: differs"
+    open_ = [r for r in readings if not r.get("equivalent")]
+    if any(r.get("needed_equivalence") is None for r in open_):
+        decide = [r["needed"] for r in open_ if r.get("needed") is not None]
+        return "PyBullet: equivalence out of reach" + (f", ~{max(decide)} decide" if decide else "")
+    return f"PyBullet: ~{max(r['needed_equivalence'] for r in open_)} layouts to read equivalent"
 
 
 def table_row(family: str, layer: str, profile: str, method: str, record: dict | None) -> str:
