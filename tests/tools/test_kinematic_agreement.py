@@ -46,16 +46,14 @@ def test_a_cell_says_what_is_missing():
 
 
 def test_the_backend_may_answer_only_where_both_metrics_are_equivalent():
-    assert verdict(equivalent(), equivalent()) == "may answer"
+    assert verdict(equivalent(), equivalent()) == "yes"
     # a difference inside the margin is still equivalent within it (TOST rejected)
-    assert verdict(equivalent("B better"), equivalent()) == "may answer"
-    assert verdict(equivalent(), inconclusive(40, 60)) == "PyBullet: ~60 layouts to read equivalent"
-    both = verdict(inconclusive(95, 120), inconclusive(151, 80))
-    assert both == "PyBullet: ~120 layouts to read equivalent"
-    out_of_reach = verdict(inconclusive(44, None), equivalent())
-    assert out_of_reach == "PyBullet: equivalence out of reach, ~44 decide"
+    assert verdict(equivalent("B better"), equivalent()) == "yes"
+    assert verdict(equivalent(), inconclusive(40, 60)) == "no: eq. needs ~60"
+    assert verdict(inconclusive(95, 120), inconclusive(151, 80)) == "no: eq. needs ~120"
+    assert verdict(inconclusive(44, None), equivalent()) == "no: eq. unreachable"
     outside = inconclusive() | {"reading": "A better"}
-    assert verdict(outside, equivalent()) == "PyBullet: differs"
+    assert verdict(outside, equivalent()) == "no: differs"
     assert verdict(None, equivalent()) == "not run"
 
 
@@ -63,9 +61,18 @@ def test_a_table_row_carries_the_cell_n_readings_and_verdict():
     row = table_row("r-style", "nav2", "real", "d3dwa", record(equivalent()))
     assert (
         row
-        == "| r-style | nav2 | real | d3dwa | 40 | +0.4 pt [+0.1, +0.8] | +0.004 [+0.001, +0.008] | may answer |"
+        == "| r-style | nav2 | real | d3dwa | 40 | +0.4 [+0.1, +0.8] | +0.004 [+0.001, +0.008] | yes |"
     )
     assert table_row("barn-style", "none", "none", "dwa3", None).endswith("| - | - | not run |")
+
+
+def test_with_one_profile_the_cell_reads_compares_pooled_group():
+    one = {"groups": [{"group": "given, noise none", "readings": {}},
+                      {"group": "all", "readings": {"success": equivalent(), "score": equivalent()}}]}  # fmt: skip
+    assert table_row("r-style", "none", "none", "dwa3", one).endswith("| yes |")
+    # with several profiles "all" pools them: never read as one profile's
+    assert cell_text(record(equivalent(), "real") | {"groups": record(equivalent())["groups"] + one["groups"][1:]},
+                     "none", "score") == "no pairs"  # fmt: skip
 
 
 def log(xs: list[float], actions: list[int]) -> dict:

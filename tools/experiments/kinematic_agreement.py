@@ -64,9 +64,11 @@ def reading(record: dict | None, profile: str, metric: str) -> dict | None:
     """The readings record of one profile's group and metric (None: not run or no pairs)."""
     if record is None:
         return None
-    group = next(
-        (g for g in record["groups"] if g["group"] == f"all layouts, noise {profile}"), None
-    )
+    names = {g["group"]: g for g in record["groups"]}
+    profiles = {name.rpartition(", noise ")[2] for name in names if ", noise " in name}
+    # with one profile, compare pools the layouts in "all" and names no "all layouts" group
+    pooled = "all" if profiles == {profile} else None
+    group = names.get(f"all layouts, noise {profile}", names.get(pooled))
     return None if group is None else group.get("readings", {}).get(metric)
 
 
@@ -89,9 +91,10 @@ def reading_text_of(r: dict) -> str:
     return reading_text(r)
 
 
-def short(r: dict, metric: str) -> str:
-    """'+8.33 pt [-10, +26.7]' (success, points) or '+0.0046 [-0.0012, +0.0094]' (score)."""
-    scale, unit = (100.0, " pt") if metric == "success" else (1.0, "")
+def short(r: dict, metric: str, points: str = " pt") -> str:
+    """'+8.33 pt [-10, +26.7]' (success, in points, the unit ``points``) or '+0.0046 [-0.0012,
+    +0.0094]' (score)."""
+    scale, unit = (100.0, points) if metric == "success" else (1.0, "")
     interval = (
         "" if r.get("low") is None else f" [{scale * r['low']:+.3g}, {scale * r['high']:+.3g}]"
     )
@@ -99,40 +102,38 @@ def short(r: dict, metric: str) -> str:
 
 
 def verdict(success: dict | None, score: dict | None) -> str:
-    """'may answer' when both readings are equivalent within their margins (TOST rejects, a
-    difference inside the margin included); otherwise 'PyBullet' and why: 'differs' (a
-    difference that is not within the margin), '~N layouts to read equivalent' (the most the
+    """'yes' (the backend may answer) when both readings are equivalent within their margins
+    (TOST rejects, a difference inside the margin included); otherwise 'no' and why: 'differs'
+    (a difference that is not within the margin), 'eq. needs ~N' (the most layouts the
     repository's sizing, paired.layouts_for_equivalence at 80 % power, asks of a metric not yet
-    equivalent), or 'equivalence out of reach, ~M decide' (a mean difference at or beyond its
-    margin: no number of layouts shows equivalence then; M layouts would decide the difference);
-    'not run' without a reading."""
+    equivalent), or 'eq. unreachable' (a mean difference at or beyond its margin: no number of
+    layouts shows equivalence then); 'not run' without a reading."""
     if not success or not score:
         return "not run"
     readings = (success, score)
     if all(r.get("equivalent") for r in readings):
-        return "may answer"
+        return "yes"
     if any(r.get("reading") in ("A better", "B better") for r in readings):
-        return "PyBullet: differs"
+        return "no: differs"
     open_ = [r for r in readings if not r.get("equivalent")]
     if any(r.get("needed_equivalence") is None for r in open_):
-        decide = [r["needed"] for r in open_ if r.get("needed") is not None]
-        return "PyBullet: equivalence out of reach" + (f", ~{max(decide)} decide" if decide else "")
-    return f"PyBullet: ~{max(r['needed_equivalence'] for r in open_)} layouts to read equivalent"
+        return "no: eq. unreachable"
+    return f"no: eq. needs ~{max(r['needed_equivalence'] for r in open_)}"
 
 
 def table_row(family: str, layer: str, profile: str, method: str, record: dict | None) -> str:
     """One markdown row: the cell, n, both readings (kinematic - PyBullet) and the verdict."""
     success, score = (reading(record, profile, m) for m in METRICS)
     n = "" if not score else score.get("layouts", "")
-    cells = [short(r, m) if r and r.get("difference") is not None else "-"
+    cells = [short(r, m, points="") if r and r.get("difference") is not None else "-"
              for r, m in ((success, "success"), (score, "score"))]  # fmt: skip
     cell = f"| {family} | {layer} | {profile} | {method} | {n} |"
     return f"{cell} {cells[0]} | {cells[1]} | {verdict(success, score)} |"
 
 
 TABLE_HEAD = [
-    "| family | layer | profile | method | n | success, kin - PB [95 %] | score, kin - PB [95 %] "
-    "| backend |",
+    "| family | layer | profile | method | n | success points, kin - PB [95 %] "
+    "| score, kin - PB [95 %] | may answer |",
     "|---|---|---|---|---:|---|---|---|",
 ]
 
