@@ -32,6 +32,7 @@ from d3dwa_bullet.cli.options import (
 from d3dwa_bullet.cli.output import check_out_dir, json_text
 from d3dwa_bullet.cli.plan_options import add_global_plan_option
 from d3dwa_bullet.cli.suites import add_suite_options, suite_world_names
+from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.plans.plan_file import Plan, check_fits, load_plan
 from d3dwa_bullet.evaluation.policy_runs import check_policy_root
@@ -66,7 +67,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--layout-seed",
         type=int,
-        default=UNSEEN_LAYOUT_SEED_BASE,
+        metavar="S",
         help="the first unseen layout's generator seed per style (default 2^31; the layouts are "
         "S, S+1, ...); seeds below 2^31 are training's",
     )
@@ -115,6 +116,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     suite = suite_world_names(args)
     given = split_list(args.worlds) if args.worlds is not None else SHIPPED_WORLDS
     styles = split_list(args.styles) if args.styles is not None else (() if suite else STYLES)
+    layout_seed = UNSEEN_LAYOUT_SEED_BASE if args.layout_seed is None else args.layout_seed
+    if args.layout_seed is not None and not (styles and args.layouts):  # it would change nothing
+        raise ConfigError(
+            f"--layout-seed {args.layout_seed}: this sweep generates no layouts (--styles and "
+            "--layouts choose them)"
+        )
     # a chooser from outside the package gets its floors, as in eval
     listed = list_arg(args.methods, "--methods", lambda: default_methods(args.policy_root))
     methods = tuple(with_floors(listed))
@@ -122,7 +129,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     root = check_policy_root(args.policy_root, methods, policy)
     settings = SweepSettings(
         methods=methods, worlds=tuple(given if suite is None else suite), styles=tuple(styles),
-        layouts=args.layouts, layout_seed=args.layout_seed, seeds=args.seeds, first_seed=args.seed,
+        layouts=args.layouts, layout_seed=layout_seed, seeds=args.seeds, first_seed=args.seed,
         levels=args.levels,
         axes=tuple(split_list(args.axes) if args.axes is not None else AXES),
         profiles=tuple(split_list(args.profiles) if args.profiles is not None else PROFILES),

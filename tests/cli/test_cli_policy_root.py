@@ -32,6 +32,7 @@ def setup(tmp_path_factory) -> tuple[Path, Path]:
     world.write_text(yaml.safe_dump(NEAR_GOAL))
     root = base / "recipe-seeds"
     seed_folder(root, seeds=(0, 1))
+    (root / "d3dwa" / "seed-1" / "learning_curve.png").write_bytes(b"a curve")  # report copies it
     return world, root
 
 
@@ -76,8 +77,14 @@ def test_eval_records_the_root_and_refuses_another_on_resume(setup, tmp_path, ca
     assert f"this command has '{twin.resolve()}'" in line
     # no root at all (the shipped policies) is another run too
     line = refused(capsys, "eval", "--worlds", world, "--methods", "d3dwa", "--out", out)
-    assert "--policy-root" in line or "other weights" in line
+    assert f"its episodes ran with --policy-root '{root.resolve()}', this command has None" in line
     assert len(_rows(out)) == 2
+    # the report shows the root's learning curves, not the shipped ones
+    assert main(["report", str(out)]) == 0
+    page = (out / "report.md").read_text()
+    assert "(`recipe-seeds/d3dwa/seed-1/learning_curve.png`)" in page
+    assert (out / "figures" / "learning_curve_d3dwa_seed-1.png").read_bytes() == b"a curve"
+    assert "d3dwa-dr" not in page
 
 
 def test_sweep_records_the_root(setup, tmp_path, capsys):

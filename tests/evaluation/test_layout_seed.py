@@ -83,11 +83,17 @@ def test_the_cli_records_it_refuses_below_and_a_resume_with_another(tmp_path, ca
         "d3dwa: error: --layout-seed 12: training draws generated layouts' seeds from [0, 2^31"
     )
     assert not out.exists()
+    line = refused(capsys, *_sweep(out, "--layout-seed", str(BASE), "--layouts", "0"))
+    assert line.endswith(
+        f"--layout-seed {BASE}: this sweep generates no layouts (--styles and --layouts choose them)"
+    )
+    assert not out.exists()
     assert main(_sweep(out, "--layout-seed", str(BASE + 3))) == 0
     capsys.readouterr()
     assert [r["world"] for r in read_sweep(out)] == [f"R1-style-s{BASE + 3}"]
     settings = json.loads((out / "meta.json").read_text())["settings"]
     assert settings["layout_seed"] == BASE + 3
-    line = refused(capsys, *_sweep(out, "--json"))  # the default, 2^31: other layouts than the rows'
+    # the default, 2^31: other layouts than the rows'
+    line = refused(capsys, *_sweep(out, "--json"))
     assert f"worlds R1-style-s{BASE + 3}" in line
     assert [r["world"] for r in read_sweep(out)] == [f"R1-style-s{BASE + 3}"]
