@@ -81,9 +81,10 @@ def test_one_sweep_holds_both_strata_and_a_plan_reads_them(tmp_path, capsys):
         ("barn", ["--count", "2"], "--count does not apply to --suite barn"),
     ],
 )
-def test_bad_suites_are_one_line(suite, extra, says, tmp_path, capsys):
+@pytest.mark.parametrize("command", ["eval", "sweep"])
+def test_bad_suites_are_one_line(command, suite, extra, says, tmp_path, capsys):
     out = tmp_path / "never"
-    line = refused(capsys, "sweep", "--suite", suite, *extra, "--methods", "dwa3", "--out", out)
+    line = refused(capsys, command, "--suite", suite, *extra, "--methods", "dwa3", "--out", out)
     assert says in line
     assert not out.exists()
 
