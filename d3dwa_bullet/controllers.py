@@ -34,8 +34,11 @@ from d3dwa_bullet.resources import policies_dir
 from d3dwa_bullet.seed_dirs import seed_dirs
 
 
-def default_policy_path(name: str) -> Path:
-    return policies_dir() / name
+def default_policy_path(name: str, root: str | Path | None = None) -> Path:
+    """Where method ``name``'s policies are: ``root/<name>/`` under a policy root
+    (``--policy-root DIR``: seed folders kept outside the package), else the shipped
+    ``policies/<name>/``."""
+    return (policies_dir() if root is None else Path(root)) / name
 
 
 def make_controller(

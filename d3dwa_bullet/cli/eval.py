@@ -21,6 +21,7 @@ from d3dwa_bullet.cli.options import (
     ALLOW_EMPTY_HELP,
     add_backend_options,
     add_episode_options,
+    add_policy_root_option,
     add_reuse_options,
     default_methods,
     episode_config,
@@ -36,7 +37,7 @@ from d3dwa_bullet.cli.suites import add_suite_options, suite_world_names
 from d3dwa_bullet.controllers import make_controller
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import ConfigError
-from d3dwa_bullet.evaluation.policy_runs import method_runs, policy_digests
+from d3dwa_bullet.evaluation.policy_runs import check_policy_root, method_runs, policy_digests
 from d3dwa_bullet.evaluation.results import read_meta
 from d3dwa_bullet.evaluation.reuse import reuse_arg, reused_lines
 from d3dwa_bullet.external.resolve import method_origins, with_floors
@@ -59,6 +60,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--worlds", help="comma list of names or files (default: TS1..TS4,US1,H1..H3)")
     add_suite_options(p)
+    add_policy_root_option(p)
     p.add_argument(
         "--seeds", type=int, default=1, help="evaluation seeds per (method, training seed, world)"
     )
@@ -87,18 +89,20 @@ def cmd_eval(args: argparse.Namespace) -> int:
     check_address(args.ray)
     workers = workers_arg(args)
     config = episode_config(args)
-    methods = [check_method(m) for m in list_arg(args.methods, "--methods", default_methods)]
+    listed = list_arg(args.methods, "--methods", lambda: default_methods(args.policy_root))
+    methods = [check_method(m) for m in listed]
     methods = with_floors(methods)  # a chooser from outside the package gets its floors
     suite = suite_world_names(args)
     world_args = suite or list_arg(args.worlds, "--worlds", lambda: world_names(*TABLE1_GROUPS))
     policy = policy_arg(args.policy, methods)
+    root = check_policy_root(args.policy_root, methods, policy)
     if args.seeds < 1:
         raise ConfigError(f"--seeds must be >= 1, got {args.seeds}")
     MAX_SEEDS.check("--seeds", args.seeds, "seeds")
     seed_arg(args.seed)
     MAX_SEED_VALUE.check("--seed + --seeds - 1 (the last seed)", args.seed + args.seeds - 1)
     seeds = list(range(args.seed, args.seed + args.seeds))
-    runs = method_runs(methods, policy, args.policy_seeds)
+    runs = method_runs(methods, policy, args.policy_seeds, root)
     MAX_EPISODES.check("eval", len(world_args) * len(runs) * len(seeds), "episodes")
     noise_arg(args.noise)
     loaded = [load_cli_world(w, args.allow_empty) for w in world_args]
@@ -127,7 +131,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         for w in worlds for r in runs for s in seeds
     ]  # fmt: skip
     check_distinct(jobs)  # before --out is made (evaluate checks again: it has other callers)
-    notes = policy_config_notes(runs, config.recovery_name, policy)
+    notes = policy_config_notes(runs, config.recovery_name, policy or root)
     training = runs_barn_training(runs)  # read before any episode: a bad record is refused
     reuse = reuse_arg(args.reuse, args.reuse_check, args.out)
     out = check_out_dir(args.out, subdirs=("logs", "figures"))
@@ -143,6 +147,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
     }  # fmt: skip
     if policy:
         settings["policy"] = str(Path(policy).resolve())
+    if root:
+        settings["policy_root"] = root
     settings["policy_notes"] = notes
     settings[SETTINGS_KEY] = settings_entry(training)
     with locked_dir(out):  # one writer: the episodes, then the tables and figures

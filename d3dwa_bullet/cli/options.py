@@ -116,6 +116,16 @@ def policy_arg(policy: str | None, methods: Sequence[str]) -> str | None:
     return policy
 
 
+def add_policy_root_option(p: argparse.ArgumentParser) -> None:
+    """--policy-root DIR (eval, sweep): see :func:`d3dwa_bullet.evaluation.policy_runs.check_policy_root`."""
+    p.add_argument(
+        "--policy-root",
+        metavar="DIR",
+        help="each learned method's seed folders from DIR/<method>/seed-<k>/ instead of the shipped "
+        "policies/<method>/ (not with --policy); docs/design/learning-protocol.md#policy-root",
+    )
+
+
 def noise_arg(name: str) -> str:
     """--noise checked before any simulator is imported: a shipped profile's name or a profile
     file that loads (randomization's loader, through the bounded YAML loader)."""
@@ -334,13 +344,16 @@ def workers_arg(args: argparse.Namespace) -> int:
     return args.workers
 
 
-def default_methods() -> list[str]:
+def default_methods(policy_root: str | None = None) -> list[str]:
     """The paper's track: fixed baselines, the reference methods drawn every control step
     (SPEC 6's floor) and held for the shipped policies' decision period (the floor a learned
-    method must clear), then every learned method whose shipped policy exists, but for those
+    method must clear), then every learned method whose shipped policy exists (or whose folder
+    ``--policy-root`` holds), but for those
     trained on BARN (``-barn``): they are asked on BARN, by name (docs/pilots/barn-trained/plan.md),
     and fifteen more policies on every default run would take the main job past its 10 minutes."""
-    learned = [m for m in LEARNED if default_policy_path(m).exists() and barn_twin(m) is None]
+    learned = [
+        m for m in LEARNED if default_policy_path(m, policy_root).exists() and barn_twin(m) is None
+    ]
     return list(FIXED) + list(REFERENCE) + list(HELD_REFERENCE) + learned
 
 

@@ -15,6 +15,7 @@ from d3dwa_bullet.backends import check_address
 from d3dwa_bullet.cli.options import (
     ALLOW_EMPTY_HELP,
     add_backend_options,
+    add_policy_root_option,
     add_recovery_options,
     add_reuse_options,
     add_sim_backend_option,
@@ -31,9 +32,11 @@ from d3dwa_bullet.cli.options import (
 from d3dwa_bullet.cli.output import check_out_dir, json_text
 from d3dwa_bullet.cli.plan_options import add_global_plan_option
 from d3dwa_bullet.cli.suites import add_suite_options, suite_world_names
+from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.plans.plan_file import Plan, check_fits, load_plan
 from d3dwa_bullet.evaluation.plans.plan_seeds import with_plan_seeds
+from d3dwa_bullet.evaluation.policy_runs import check_policy_root
 from d3dwa_bullet.evaluation.results import read_meta
 from d3dwa_bullet.evaluation.reuse import reuse_arg, reused_lines
 from d3dwa_bullet.evaluation.sweep_settings import (
@@ -43,6 +46,7 @@ from d3dwa_bullet.evaluation.sweep_settings import (
     SweepSettings,
 )
 from d3dwa_bullet.external.resolve import with_floors
+from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -61,6 +65,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--layouts", type=int, default=2, help="unseen generated layouts per R1/R2/R3 style"
     )
+    p.add_argument(
+        "--layout-seed",
+        type=int,
+        metavar="S",
+        help="the first unseen layout's generator seed per style (default 2^31; the layouts are "
+        "S, S+1, ...); seeds below 2^31 are training's",
+    )
     p.add_argument("--seeds", type=int, default=2, help="episode seeds per condition")
     p.add_argument("--seed", type=int, default=0, help="first episode seed")
     p.add_argument("--worlds", help="shipped worlds, comma list (default: R1,R2,R3; '' for none)")
@@ -76,6 +87,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--time-limit", type=float, help="episode time limit override, s")
     add_backend_options(p)
     p.add_argument("--policy", help="checkpoint directory (only with a single --methods)")
+    add_policy_root_option(p)
     p.add_argument(
         "--policy-seeds",
         default="all",
@@ -106,16 +118,26 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     suite = suite_world_names(args)
     given = split_list(args.worlds) if args.worlds is not None else SHIPPED_WORLDS
     styles = split_list(args.styles) if args.styles is not None else (() if suite else STYLES)
+    layout_seed = UNSEEN_LAYOUT_SEED_BASE if args.layout_seed is None else args.layout_seed
+    if args.layout_seed is not None and not (styles and args.layouts):  # it would change nothing
+        raise ConfigError(
+            f"--layout-seed {args.layout_seed}: this sweep generates no layouts (--styles and "
+            "--layouts choose them)"
+        )
+    # a chooser from outside the package gets its floors, as in eval
+    listed = list_arg(args.methods, "--methods", lambda: default_methods(args.policy_root))
+    methods = tuple(with_floors(listed))
+    policy = policy_arg(args.policy, methods)
+    root = check_policy_root(args.policy_root, methods, policy)
     settings = SweepSettings(
-        # a chooser from outside the package gets its floors, as in eval
-        methods=tuple(with_floors(list_arg(args.methods, "--methods", default_methods))),
-        worlds=tuple(given if suite is None else suite), styles=tuple(styles),
-        layouts=args.layouts, seeds=args.seeds, first_seed=args.seed, levels=args.levels,
+        methods=methods, worlds=tuple(given if suite is None else suite), styles=tuple(styles),
+        layouts=args.layouts, layout_seed=layout_seed, seeds=args.seeds, first_seed=args.seed,
+        levels=args.levels,
         axes=tuple(split_list(args.axes) if args.axes is not None else AXES),
         profiles=tuple(split_list(args.profiles) if args.profiles is not None else PROFILES),
         time_limit=time_limit_arg(args.time_limit), policy_seeds=args.policy_seeds,
+        policy_root=root,
     )  # fmt: skip
-    policy = policy_arg(args.policy, settings.methods)
     config = episode_config(args)
     plan = load_plan(args.plan) if args.plan else None
     if plan is not None:

@@ -6,7 +6,8 @@ from __future__ import annotations
 import argparse
 
 from d3dwa_bullet.cli.output import json_text
-from d3dwa_bullet.cli.suites import add_suite_options, suite_world_names
+from d3dwa_bullet.cli.suites import add_suite_options, suite_list, suite_world_names
+from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.world.barn import barn_index, barn_split, path_length, read_world_file, world_file
 from d3dwa_bullet.world.barn_difficulty import (
     TERCILE_MEASURE,
@@ -29,7 +30,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def cmd_worlds(args: argparse.Namespace) -> int:
     suite = suite_world_names(args, default_split="all")
-    if suite is not None and args.suite == "barn-style":
+    suites = suite_list(args.suite) if suite is not None else []
+    if len(suites) > 1:  # two tables of other columns
+        raise ConfigError(f"worlds --suite {args.suite}: list one suite at a time")
+    if suites == ["barn-style"]:
         return _list_barn_style(suite, args.json)
     if suite is not None:
         return _list_suite(suite, args.json)

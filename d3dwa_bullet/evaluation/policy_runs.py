@@ -2,10 +2,11 @@
 
 A learned method's result is its distribution over training seeds
 (docs/design/learning-protocol.md#learning-protocol), so an evaluation drives every ``seed-<k>/`` of the
-method's policy folder (``policies/<method>/``, or ``--policy DIR``: :func:`policy_folder`) unless
-``--policy-seeds`` names some of them: the same seeds of every learned method (``0-4``), or per
-method (``d3dwa=0-14;d3dwa-dr=0-4``, a method not named runs all of its seeds: what a sequential
-plan's ``seeds`` field becomes, ``plans/plan_seeds.py``). A folder without seed folders is one policy (a
+method's policy folder (``policies/<method>/``, ``DIR/<method>/`` under ``--policy-root DIR``,
+or ``--policy DIR``: :func:`policy_folder`) unless ``--policy-seeds`` names some of them: the
+same seeds of every learned method (``0-4``), or per method (``d3dwa=0-14;d3dwa-dr=0-4``, a
+method not named runs all of its seeds: what a sequential plan's ``seeds`` field becomes,
+``plans/plan_seeds.py``). A folder without seed folders is one policy (a
 checkpoint, or one ``seed-<k>`` folder given as ``--policy``). A fixed or reference method
 (``random``) is one run with no policy.
 
@@ -90,10 +91,11 @@ def check_one_experiment(folder: Path, seeds: dict[int, Path]) -> None:
             )
 
 
-def policy_folder(method: str, policy: str | None = None) -> Path:
-    """The folder of a learned method's policies: ``policy`` (``--policy``), else the shipped
-    ``policies/<method>/``; what an evaluation drives and a plan's seeds are counted in."""
-    return Path(policy) if policy is not None else default_policy_path(method)
+def policy_folder(method: str, policy: str | None = None, policy_root: str | None = None) -> Path:
+    """The folder of a learned method's policies: ``policy`` (``--policy``), else
+    ``policy_root/<method>/`` (``--policy-root``), else the shipped ``policies/<method>/``;
+    what an evaluation drives and a plan's seeds are counted in."""
+    return Path(policy) if policy is not None else default_policy_path(method, policy_root)
 
 
 def per_method_seeds(spec: str | None) -> dict[str, str] | None:
@@ -128,15 +130,44 @@ def select_seeds(folder: Path, spec: str | None) -> dict[int, Path]:
     return {k: shipped[k] for k in wanted}
 
 
+def check_policy_root(
+    root: str | None, methods: Sequence[str], policy: str | None = None
+) -> str | None:
+    """``--policy-root DIR`` checked before any episode (ConfigError, one line): not beside
+    ``--policy``, DIR a folder, and holding ``DIR/<method>/`` for every learned method of
+    ``methods``. Returns DIR resolved (what meta.json records); None without the option."""
+    if root is None:
+        return None
+    if policy is not None:
+        raise ConfigError(
+            f"--policy-root {root} and --policy {policy} both say where policies are: give one"
+        )
+    folder = Path(root)
+    if not folder.is_dir():
+        raise ConfigError(f"--policy-root {root}: no such folder")
+    for method in methods:
+        if needs_policy(method) and not default_policy_path(method, folder).is_dir():
+            raise ConfigError(
+                f"--policy-root {root}: it has no folder {method}/ for learned method {method!r} "
+                f"(expected {default_policy_path(method, folder)}/seed-<k>/)"
+            )
+    return str(folder.resolve())
+
+
 def method_runs(
-    methods: Sequence[str], policy: str | None = None, policy_seeds: str | None = None
+    methods: Sequence[str],
+    policy: str | None = None,
+    policy_seeds: str | None = None,
+    policy_root: str | None = None,
 ) -> list[PolicyRun]:
     """The runs of each method, in method order then seed order (module docstring).
 
     policy: ``--policy`` (one learned method only; the caller checks). policy_seeds:
     ``--policy-seeds``, for every learned method or per method (:func:`per_method_seeds`);
     ConfigError if it names a seed some learned method's folder lacks, a method that is not a
-    learned one here, or if no method has seed folders to choose from."""
+    learned one here, or if no method has seed folders to choose from. policy_root:
+    ``--policy-root`` (checked by :func:`check_policy_root`), where each learned method's
+    folder is instead of the shipped ``policies/``; its runs name their folders."""
     runs: list[PolicyRun] = []
     chosen = False
     per_method = per_method_seeds(policy_seeds)
@@ -149,10 +180,11 @@ def method_runs(
         if not needs_policy(method):
             runs.append(PolicyRun(method))
             continue
-        folder = policy_folder(method, policy)
+        folder = policy_folder(method, policy, policy_root)
         seeds = seed_dirs(folder)
         if not seeds:  # one policy: a checkpoint, a seed-<k> folder, or an old shipped one
-            runs.append(PolicyRun(method, seed_of(folder) if policy is not None else None, policy))
+            named = str(folder) if policy_root is not None and policy is None else policy
+            runs.append(PolicyRun(method, seed_of(folder) if policy is not None else None, named))
             continue
         chosen = True
         selected = select_seeds(

@@ -377,8 +377,9 @@ def write_report(
     brought = settings.get("policy") if policies_dir is None else None
     if brought:
         policies, method = Path(brought), (settings.get("methods") or [None])[0]
-    else:
-        policies = shipped_policies_dir() if policies_dir is None else Path(policies_dir)
+    else:  # a --policy-root run shows its root's curves
+        root = policies_dir or settings.get("policy_root")
+        policies = Path(root) if root else shipped_policies_dir()
         method = None
     curves = learning_curves(out, policies, method)
     if curves:

@@ -84,7 +84,8 @@ DERIVED_PAGES = ("table.md", "sweep.md", "report.md")
 
 KEY_FIELDS = ("world", "method", "policy_seed", "seed", "noise")
 EPISODE_SETTINGS = {
-    "time_limit": "--time-limit", "policy": "--policy", "recovery": "--recovery",
+    "time_limit": "--time-limit", "policy": "--policy", "policy_root": "--policy-root",
+    "recovery": "--recovery",
     GLOBAL_PLAN_FIELD: "--global-plan",
 }  # fmt: skip
 """Settings (meta.json "settings") that change an episode but not its key, with the option

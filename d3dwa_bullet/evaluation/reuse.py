@@ -183,9 +183,8 @@ def _named_worlds(settings: Mapping[str, Any]) -> set[str]:
     if settings.get("kind") == "eval":
         pairs = zip(settings.get("worlds", []), settings.get("world_sources", []), strict=False)
         return {key for key, arg in pairs if named(arg)}
-    seeds = range(
-        UNSEEN_LAYOUT_SEED_BASE, UNSEEN_LAYOUT_SEED_BASE + int(settings.get("layouts", 0))
-    )
+    first = int(settings.get("layout_seed") or UNSEEN_LAYOUT_SEED_BASE)  # 2^31 before --layout-seed
+    seeds = range(first, first + int(settings.get("layouts", 0)))
     generated = {f"{style}-s{seed}" for style in settings.get("styles", []) for seed in seeds}
     return {a for a in settings.get("worlds", []) if named(a)} | generated
 

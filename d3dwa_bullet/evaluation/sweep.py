@@ -1,9 +1,9 @@
 """Noise sweep: how each method degrades as one noise source grows, and under whole profiles.
 
 Worlds: the shipped real-style worlds R1-R3 and, per generator style (R1-style, R2-style,
-R3-style), ``layouts`` freshly generated layouts with seeds ``UNSEEN_LAYOUT_SEED_BASE + i``
-(2^31, 2^31 + 1, ...; :mod:`d3dwa_bullet.world.generator`). Training draws generator seeds
-below that bound, so these layouts are never seen in training. Layout group ``shipped`` holds
+R3-style), ``layouts`` freshly generated layouts with seeds ``layout_seed + i`` (``--layout-seed``,
+default ``UNSEEN_LAYOUT_SEED_BASE``: 2^31, 2^31 + 1, ...; :mod:`d3dwa_bullet.world.generator`).
+Training draws generator seeds below 2^31, so these layouts are never seen in training. Layout group ``shipped`` holds
 the shipped worlds named in ``--worlds`` (default R1-R3), ``given`` any other ``--worlds`` entry
 (a generated layout by name, a world file), ``generated`` the unseen layouts.
 
@@ -124,9 +124,10 @@ def conditions(settings: SweepSettings) -> list[Condition]:
     return out
 
 
-def unseen_layout_seeds(layouts: int) -> list[int]:
-    """Generator seeds of the unseen layouts: 2^31, 2^31 + 1, ..."""
-    return [UNSEEN_LAYOUT_SEED_BASE + i for i in range(layouts)]
+def unseen_layout_seeds(layouts: int, first: int = UNSEEN_LAYOUT_SEED_BASE) -> list[int]:
+    """Generator seeds of the unseen layouts: first, first + 1, ... (first: ``--layout-seed``,
+    2^31 by default)."""
+    return [first + i for i in range(layouts)]
 
 
 def given_group(name: str) -> str:
@@ -146,7 +147,9 @@ def sweep_worlds(settings: SweepSettings, progress: bool = False) -> list[tuple[
     for style in settings.styles:
         load_generator(style)  # an unknown style is refused alone, before the bar starts
     todo = [
-        (style, seed) for style in settings.styles for seed in unseen_layout_seeds(settings.layouts)
+        (style, seed)
+        for style in settings.styles
+        for seed in unseen_layout_seeds(settings.layouts, settings.layout_seed)
     ]
     with tqdm(
         todo, disable=not (progress and todo), desc="layouts", unit="layout", leave=False
@@ -162,7 +165,7 @@ def sweep_jobs(
 ) -> list[Job]:
     """Every episode of the sweep: worlds x (methods x training seeds) x conditions x seeds."""
     seeds = range(settings.first_seed, settings.first_seed + settings.seeds)
-    runs = method_runs(settings.methods, policy, settings.policy_seeds)
+    runs = method_runs(settings.methods, policy, settings.policy_seeds, settings.policy_root)
     MAX_EPISODES.check("sweep", episode_count(settings, len(runs)), "episodes")
     return [
         Job(world, run.method, seed, c.noise, run.policy, c.noise_config,
@@ -226,7 +229,7 @@ def layout_titles(settings: SweepSettings) -> dict[str, str]:
                  for w in settings.worlds if given_group(w) == group]  # fmt: skip
         if names:  # a whole BARN split's tercile is ~80 worlds: counted, not listed
             titles[group] = f"{label}: {world_span(names)}"
-    seeds = unseen_layout_seeds(settings.layouts)
+    seeds = unseen_layout_seeds(settings.layouts, settings.layout_seed)
     if seeds and settings.styles:
         span = f"{seeds[0]}" if len(seeds) == 1 else f"{seeds[0]}..{seeds[-1]}"
         titles["generated"] = (

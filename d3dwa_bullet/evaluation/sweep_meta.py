@@ -21,7 +21,7 @@ def sweep_meta(
 ) -> tuple[dict[str, Any], dict[str, BarnTraining]]:
     """(the sweep's meta.json settings, the BARN training of its runs). Every method's
     controller is made first, so a missing policy fails before anything is written."""
-    runs = method_runs(settings.methods, policy, settings.policy_seeds)
+    runs = method_runs(settings.methods, policy, settings.policy_seeds, settings.policy_root)
     for run in runs:
         make_controller(run.method, run.policy)  # fail fast on a missing policy
     meta = {"kind": "sweep", "command": command} | settings.to_dict()
@@ -29,7 +29,9 @@ def sweep_meta(
     meta["method_sources"] = method_origins(settings.methods)
     if policy:
         meta["policy"] = str(Path(policy).resolve())
-    meta["policy_notes"] = policy_config_notes(runs, config.recovery_name, policy)
+    meta["policy_notes"] = policy_config_notes(
+        runs, config.recovery_name, policy or settings.policy_root
+    )
     training = runs_barn_training(runs)
     meta[SETTINGS_KEY] = settings_entry(training)
     return meta, training

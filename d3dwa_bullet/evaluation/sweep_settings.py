@@ -12,6 +12,7 @@ from d3dwa_bullet.errors import ConfigError, UnknownNameError
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.limits import MAX_EPISODES, MAX_LAYOUTS, MAX_LEVELS, MAX_SEEDS
 from d3dwa_bullet.method_specs import check_method
+from d3dwa_bullet.world.generator import UNSEEN_LAYOUT_SEED_BASE, check_unseen_seeds
 from d3dwa_bullet.world.registry import world_names
 from randomization import load_profile
 
@@ -35,6 +36,10 @@ class SweepSettings:
     """Generator styles of the unseen layouts."""
     layouts: int = 2
     """Unseen generated layouts per style."""
+    layout_seed: int = UNSEEN_LAYOUT_SEED_BASE
+    """``--layout-seed``: the first unseen layout's generator seed, per style (layouts take
+    ``layout_seed``, ``layout_seed + 1``, ...); 2^31 or more, and 2^31 for a meta.json from
+    before the option."""
     seeds: int = 2
     """Episode seeds per (world, method, condition)."""
     first_seed: int = 0
@@ -49,6 +54,9 @@ class SweepSettings:
     """Episode time limit override, s (default: the world's, else 60 s)."""
     policy_seeds: str = "all"
     """Training seeds of each learned method (``--policy-seeds``; see policy_runs)."""
+    policy_root: str | None = None
+    """``--policy-root``: the folder holding each learned method's ``<method>/seed-<k>/``,
+    resolved; None for the shipped ``policies/``."""
 
     def __post_init__(self) -> None:
         for name in ("layouts", "seeds", "levels"):
@@ -56,6 +64,7 @@ class SweepSettings:
             if getattr(self, name) < low:
                 raise ConfigError(f"--{name} must be >= {low}, got {getattr(self, name)}")
         MAX_LAYOUTS.check("--layouts", self.layouts, "layouts")
+        check_unseen_seeds(self.layout_seed, self.layouts, "--layout-seed")
         MAX_LEVELS.check("--levels", self.levels, "levels")
         MAX_SEEDS.check("--seeds", self.seeds, "seeds")
         if not self.methods:

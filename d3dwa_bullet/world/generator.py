@@ -45,7 +45,28 @@ LAYOUT_ATTEMPTS = 200
 UNSEEN_LAYOUT_SEED_BASE = 2**31
 """First layout seed never used in training: training draws generator seeds from
 [0, 2^31) (``integers(UNSEEN_LAYOUT_SEED_BASE)``), the noise sweep's unseen layouts use
-2^31, 2^31 + 1, ..."""
+2^31, 2^31 + 1, ... (or from its ``--layout-seed`` up)."""
+MAX_LAYOUT_SEED = 2**63 - 1
+"""Largest layout seed a sweep names (numpy's generator takes any int >= 0; names stay one int64)."""
+
+
+def check_unseen_seeds(first: int, count: int, option: str = "--layout-seed") -> int:
+    """``first`` if ``first .. first + count - 1`` are all seeds training never draws, in
+    [UNSEEN_LAYOUT_SEED_BASE, MAX_LAYOUT_SEED]; else ConfigError naming the option, the value
+    and the range training uses."""
+    if isinstance(first, bool) or not isinstance(first, int | np.integer):
+        raise ConfigError(f"{option}: a layout seed is an integer, got {first!r}")
+    if first < UNSEEN_LAYOUT_SEED_BASE:
+        raise ConfigError(
+            f"{option} {first}: training draws generated layouts' seeds from [0, 2^31 = "
+            f"{UNSEEN_LAYOUT_SEED_BASE}); unseen layouts start at {UNSEEN_LAYOUT_SEED_BASE} or more"
+        )
+    if first + max(count, 1) - 1 > MAX_LAYOUT_SEED:
+        raise ConfigError(
+            f"{option} {first}: with {count} layouts per style the last seed passes 2^63 - 1 "
+            f"({MAX_LAYOUT_SEED})"
+        )
+    return int(first)
 
 
 def _draw_shape(

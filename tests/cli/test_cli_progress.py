@@ -68,7 +68,7 @@ def test_the_main_jobs_default_methods_are_the_papers_with_a_shipped_policy() ->
 
 
 def test_a_barn_trained_policy_is_not_a_default_method(tmp_path, monkeypatch) -> None:
-    def every_policy_exists(method: str) -> Path:
+    def every_policy_exists(method: str, root: object = None) -> Path:
         return tmp_path  # exists
 
     monkeypatch.setattr(options, "default_policy_path", every_policy_exists)

@@ -67,7 +67,7 @@ def test_eval_refuses_a_seed_that_is_not_there(setup, tmp_path, capsys):
 def test_compare_prints_the_probability_of_improvement(setup, tmp_path, capsys, monkeypatch):
     world, folder = setup
     # the seed folder stands in for the shipped policies/d3dwa/
-    monkeypatch.setattr(policy_runs, "default_policy_path", lambda m: folder.parent / m)
+    monkeypatch.setattr(policy_runs, "default_policy_path", lambda m, root=None: folder.parent / m)
     out = tmp_path / "both"
     twin = tmp_path / "twin.yaml"  # a second layout: compare's test is paired by layout
     twin.write_text(yaml.safe_dump(dict(NEAR_GOAL, name="twin")))

@@ -23,7 +23,9 @@ from d3dwa_bullet.evaluation.sweep_settings import SweepSettings
 from d3dwa_bullet.seed_dirs import seed_dirs
 
 
-def plan_seed_spec(plan: Plan, policy: str | None = None) -> str | None:
+def plan_seed_spec(
+    plan: Plan, policy: str | None = None, policy_root: str | None = None
+) -> str | None:
     """The per-method ``--policy-seeds`` of the plan's ``seeds`` (each method's N lowest seed
     folders), None for a plan without ``seeds``. ConfigError naming the method, its folder,
     the seeds it has and the seeds the plan needs when a folder holds fewer."""
@@ -31,7 +33,7 @@ def plan_seed_spec(plan: Plan, policy: str | None = None) -> str | None:
         return None
     parts = []
     for method, n in plan.seeds.items():
-        folder = policy_folder(method, policy)
+        folder = policy_folder(method, policy, policy_root)
         have = list(seed_dirs(folder))
         if len(have) < n:
             raise ConfigError(
@@ -47,7 +49,7 @@ def with_plan_seeds(
 ) -> SweepSettings:
     """settings whose ``policy_seeds`` are the plan's (:func:`plan_seed_spec`); unchanged for a
     plan without ``seeds``. ConfigError when ``--policy-seeds`` names other seeds as well."""
-    spec = plan_seed_spec(plan, policy)
+    spec = plan_seed_spec(plan, policy, settings.policy_root)
     if spec is None or settings.policy_seeds == spec:
         return settings
     if settings.policy_seeds.strip() != ALL:

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from d3dwa_bullet.errors import TrainingError
+from d3dwa_bullet.errors import ConfigError, TrainingError
 from d3dwa_bullet.learning.agents.barn_record import barn_record
 from d3dwa_bullet.learning.agents.checkpoint import (
     CONFIG_FILE,
@@ -37,6 +37,7 @@ from d3dwa_bullet.learning.training.config import TrainConfig
 from d3dwa_bullet.learning.training.logs import MetricsLog, learning_curve
 from d3dwa_bullet.learning.training.run_dir import checkpoint_dir, config_bytes
 from d3dwa_bullet.learning.training.state import TrainingProgress
+from d3dwa_bullet.loading import load_json
 
 
 def check_finite(agent: Agent, out: Path, step: int) -> None:
@@ -146,3 +147,29 @@ def export_policy(
             path, {k: v.detach().cpu().numpy() for k, v in agent.state_dict().items()}
         )
     return path
+
+
+def check_export_target(run_dir: str | os.PathLike[str], dest: str | os.PathLike[str]) -> None:
+    """ConfigError (one line) unless ``dest`` may take ``run_dir``'s export: missing, empty, or
+    an export of this very run (its summary.json names ``run_dir``: a resumed run exports a
+    finished seed again over its own export). Called before training starts, so a policy
+    another run exported (a shipped seed copied beside new ones, say) is never replaced."""
+    target, run = Path(dest), Path(run_dir)
+    if not target.exists() or (target.is_dir() and not any(target.iterdir())):
+        return
+    source = None
+    if (target / SUMMARY_FILE).is_file():
+        try:
+            source = load_json(target / SUMMARY_FILE, TrainingError, "run summary").get("run_dir")
+        except (TrainingError, AttributeError):
+            source = None
+    started = (run / CONFIG_FILE).is_file()  # a run not started yet exported nothing
+    if started and isinstance(source, str) and Path(source).resolve() == run.resolve():
+        return
+    held = (
+        f"another run's policy (trained in {source})" if isinstance(source, str) else "other files"
+    )
+    raise ConfigError(
+        f"--export: {target} already holds {held}, not {run}'s; export elsewhere, or move that "
+        "folder away first"
+    )

@@ -30,7 +30,7 @@ import d3dwa_bullet.learning.training.warm_start as warm_start
 from d3dwa_bullet.backends import check_address, ray_session
 from d3dwa_bullet.dir_lock import locked_dir
 from d3dwa_bullet.errors import BusyError, ConfigError, D3DWAError, TrainingError
-from d3dwa_bullet.learning.training.checkpoints import export_policy
+from d3dwa_bullet.learning.training.checkpoints import check_export_target, export_policy
 from d3dwa_bullet.learning.training.config import TrainConfig, check_selection_rule
 from d3dwa_bullet.learning.training.interrupt import StopOnInterrupt
 from d3dwa_bullet.learning.training.run_dir import SUMMARY_FILE
@@ -74,7 +74,8 @@ def train_seeds(
     """Train ``config`` once per seed into ``out/seed-<k>/`` (module docstring).
 
     Without ``resume``, ConfigError if any seed's directory already holds a run (before
-    anything trains). BusyError if another process writes ``out`` or a seed's directory.
+    anything trains); with ``export``, ConfigError if any ``export/seed-<k>/`` holds
+    another run's policy (``check_export_target``, before anything trains). BusyError if another process writes ``out`` or a seed's directory.
     Ctrl-C (SIGINT) stops after the current seed's checkpoint (module docstring).
     """
     out = Path(out)
@@ -84,6 +85,9 @@ def train_seeds(
     for seed in () if resume else seeds:  # every seed's warm start fits before any trains
         warm_start.source(replace(config, seed=seed))
     check_address(ray_address)
+    if export is not None:  # a policy another run exported is never replaced
+        for seed in seeds:
+            check_export_target(seed_dir(out, seed), seed_dir(export, seed))
     with locked_dir(out):
         for seed in seeds:  # a seed another command trains is refused before any seed trains
             with locked_dir(seed_dir(out, seed)):  # (each seed's training locks it again)
