@@ -32,6 +32,7 @@ from d3dwa_bullet.loading import load_json
 from d3dwa_bullet.method_specs import needs_policy
 from d3dwa_bullet.planning.scan_filter import check_driven_filter
 from d3dwa_bullet.seed_dirs import parse_seeds, seed_dirs, seed_of
+from d3dwa_bullet.world.barn import barn_split_ids
 
 ALL = "all"
 POLICY_DATA_FILES = ("weights.pt", "table.npy")
@@ -49,6 +50,18 @@ class PolicyRun:
     """The policy folder to load; None for a method without a policy or its shipped one."""
 
 
+LATER_CONFIG_KEYS: dict[str, Any] = {
+    "barn_split": "none",
+    "barn_worlds": len(barn_split_ids("train")),
+    "scan_filter": "none",
+    "init_policy": None,
+}
+"""Training-config keys added after the shipped seeds trained, each with the value that trains as
+before they existed (``TrainConfig``'s defaults; a test holds them equal): a config.json
+without one was trained under that value, so seeds trained before and after the key was added
+are one experiment when the later ones kept it (issue 79's seeds 5-9 beside the shipped 0-4)."""
+
+
 def _experiment(folder: Path) -> dict[str, Any]:
     """What must agree between the seeds of one method: the config without its seeds, and
     the action set."""
@@ -62,6 +75,7 @@ def _experiment(folder: Path) -> dict[str, Any]:
             raise CheckpointError(f"{path}: expected a JSON object, got {type(data).__name__}")
         if name == "config.json":
             data.pop("seed", None)
+            data = LATER_CONFIG_KEYS | data
             if isinstance(data.get("agent"), dict):
                 data["agent"] = {k: v for k, v in data["agent"].items() if k != "seed"}
             found["config"] = data
