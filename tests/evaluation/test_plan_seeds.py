@@ -31,7 +31,9 @@ def root(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     for method, seeds in (("d3dwa", (7, 0, 5, 2)), ("d3dwa-weights", (3, 1))):
         for k in seeds:
             (tmp_path / method / f"seed-{k}").mkdir(parents=True)
-    monkeypatch.setattr(policy_runs, "default_policy_path", lambda method, root=None: tmp_path / method)
+    monkeypatch.setattr(
+        policy_runs, "default_policy_path", lambda method, root=None: tmp_path / method
+    )
     return tmp_path
 
 
