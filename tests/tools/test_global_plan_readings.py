@@ -5,8 +5,10 @@ from __future__ import annotations
 import csv
 import json
 
+import numpy as np
 import pytest
 
+from d3dwa_bullet.evaluation.job import log_name
 from d3dwa_bullet.evaluation.results import CSV_FIELDS
 from tools.experiments import global_plan_readings as gpr
 
@@ -91,8 +93,20 @@ def test_the_tool_reads_directories_and_refuses_bad_input(tmp_path, capsys):
     none = _results(
         tmp_path / "none", [_row("BARN-0", "goal", "harsh"), _row("BARN-6", "goal", "harsh")]
     )
+    (scan / "logs").mkdir()
+    np.savez(scan / "logs" / log_name(("BARN-6", "dwa3", None, 0, "harsh")), plan_status=np.array([0, 1, 1, 0]),
+             plan_replans=np.array(3))  # fmt: skip
     assert gpr.main([str(scan), str(none), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
+    assert report["failures"] == {
+        "scan / harsh / dwa3": {
+            "failed": 1,
+            "collisions": 1,
+            "logged": 1,
+            "ever_off_plan": 1,
+            "mean_off_plan_share": 0.5,
+        }
+    }
     assert report["collisions"]["cells"]["scan"]["BARN / harsh"]["k"] == 1
     assert report["moonshot"]["none"]["dwa3"]["every_cell_at_target"]
     assert (

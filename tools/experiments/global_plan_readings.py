@@ -11,6 +11,9 @@ Reads results directories of ``d3dwa eval`` / ``d3dwa sweep`` run with and witho
   profile) under each plan, with Wilson intervals, and whether every cell is at 90 % or more (the
   point estimate) and whether every interval's lower bound is (the rate shown to be there). Here every
   episode is counted, matched or not.
+- **failures under a plan**: each failed episode's plan log (``logs/*.npz``): how many ever fell back to
+  the goal direction (a ``plan_status`` other than ok: no path, goal blocked, off the costmap), and the
+  share of their steps spent so, per plan and profile.
 
     python -m tools.experiments.global_plan_readings runs/gp-noise/* --json
 """
@@ -24,9 +27,11 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from statsmodels.stats.proportion import proportion_confint
 
 from d3dwa_bullet.evaluation.columns import GLOBAL_PLAN_FIELD
+from d3dwa_bullet.evaluation.job import log_name
 from d3dwa_bullet.evaluation.results import read_results
 from tools.entry import ToolParser, tool_main
 
@@ -130,6 +135,47 @@ def moonshot(plans: Mapping[str, Mapping[Key, Mapping[str, Any]]]) -> dict[str, 
     return out
 
 
+def plan_failures(out: Path, rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """One record per failed episode under a plan in results directory ``out``: its key, outcome,
+    the share of its observations whose ``plan_status`` was not ok (0 to 1), and its replans. An
+    episode whose log is missing is recorded with ``None`` for both (never guessed)."""
+    found = []
+    for row in rows:
+        if plan_of(row) == "none" or row["outcome"] == "goal":
+            continue
+        record: dict[str, Any] = {"key": list(episode_key(row)), "plan": plan_of(row), "noise": row["noise"],
+                                  "method": method_label(row), "outcome": row["outcome"],
+                                  "off_plan_share": None, "replans": None}  # fmt: skip
+        path = out / "logs" / log_name(episode_key(row))
+        if path.exists():
+            with np.load(path) as log:
+                status = np.asarray(log["plan_status"])
+                record["off_plan_share"] = float(np.mean(status != 0)) if status.size else 0.0
+                record["replans"] = int(log["plan_replans"])
+        found.append(record)
+    return found
+
+
+def failure_summary(failures: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """Per plan / profile / method: failed episodes, how many ever left the plan, their mean share off it."""
+    groups: dict[str, list[Mapping[str, Any]]] = defaultdict(list)
+    for f in failures:
+        groups[f"{f['plan']} / {f['noise']} / {f['method']}"].append(f)
+    out = {}
+    for name, fs in sorted(groups.items()):
+        logged = [f for f in fs if f["off_plan_share"] is not None]
+        out[name] = {
+            "failed": len(fs),
+            "collisions": sum(f["outcome"] == "collision" for f in fs),
+            "logged": len(logged),
+            "ever_off_plan": sum(f["off_plan_share"] > 0 for f in logged),
+            "mean_off_plan_share": float(np.mean([f["off_plan_share"] for f in logged]))
+            if logged
+            else None,
+        }
+    return out
+
+
 def _interval(r: Mapping[str, Any], scale: float, digits: int) -> str:
     lo, hi = (scale * b for b in r["wilson95"])
     return f"{scale * r['rate']:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
@@ -175,11 +221,26 @@ def text(report: Mapping[str, Any]) -> str:
                 f"| {plan} | {method} | {100 * m['lowest']:.1f} | {m['every_cell_at_target']} | "
                 f"{m['every_lower_bound_at_target']} |"
             )
+    lines += [
+        "",
+        "Failures under a plan: how many ever fell back to the goal direction (plan status not ok)",
+        "",
+    ]
+    lines += [
+        "| plan / profile / method | failed | collisions | ever off the plan | mean share of steps off it |"
+    ]
+    lines += ["|---|---:|---:|---:|---:|"]
+    for name, f in report["failures"].items():
+        share = "-" if f["mean_off_plan_share"] is None else f"{f['mean_off_plan_share']:.2f}"
+        lines.append(
+            f"| {name} | {f['failed']} | {f['collisions']} | {f['ever_off_plan']}/{f['logged']} | {share} |"
+        )
     return "\n".join(lines)
 
 
 def readings(dirs: Sequence[Path]) -> dict[str, Any]:
     rows: list[dict[str, Any]] = []
+    failures: list[dict[str, Any]] = []
     for d in dirs:
         found = read_results(d)
         if not found:
@@ -187,11 +248,13 @@ def readings(dirs: Sequence[Path]) -> dict[str, Any]:
                 f"{d}: no results.csv rows (is it a results directory of eval or sweep?)"
             )
         rows += found
+        failures += plan_failures(d, found)
     plans = by_plan(rows, source=", ".join(str(d) for d in dirs))
     return {
         "dirs": [str(d) for d in dirs],
         "collisions": collision_rates(plans),
         "moonshot": moonshot(plans),
+        "failures": failure_summary(failures),
     }
 
 
