@@ -117,3 +117,28 @@ def test_the_tool_reads_directories_and_refuses_bad_input(tmp_path, capsys):
     assert "given twice" in capsys.readouterr().err
     assert gpr.main([str(tmp_path / "missing")]) == 2
     assert "missing: no results.csv rows" in capsys.readouterr().err
+
+
+def test_compare_rows_come_from_the_all_group_and_refuse_a_record_without_it(tmp_path, capsys):
+    def reading(diff, low, high, mean_a, mean_b, verdict):
+        return {"difference": diff, "low": low, "high": high, "mean_a": mean_a, "mean_b": mean_b,
+                "layouts": 34, "reading": verdict}  # fmt: skip
+
+    readings = {
+        "success": reading(0.206, 0.063, 0.349, 1.0, 0.794, "A better"),
+        "score": reading(0.156, 0.047, 0.265, 0.74, 0.59, "A better"),
+        "score_barn": reading(0.035, None, None, 0.17, 0.13, "inconclusive"),
+    }
+    record = {
+        "groups": [{"group": "barn-easy", "readings": {}}, {"group": "all", "readings": readings}]
+    }
+    row = gpr.compare_row(record, "dwa3-real")
+    assert row.startswith(
+        "| dwa3-real | 34 | 100.0 / 79.4 | +20.6 [+6.3, +34.9] | +0.156 [+0.047, +0.265] |"
+    )
+    assert "+0.035 [-, -]" in row and row.endswith("score_barn inconclusive |")
+    path = tmp_path / "x.json"
+    path.write_text(json.dumps({"groups": []}))
+    assert (
+        gpr.main(["--compare", str(path)]) == 2 and "x: no 'all' group" in capsys.readouterr().err
+    )

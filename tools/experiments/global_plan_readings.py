@@ -15,7 +15,11 @@ Reads results directories of ``d3dwa eval`` / ``d3dwa sweep`` run with and witho
   the goal direction (a ``plan_status`` other than ok: no path, goal blocked, off the costmap), and the
   share of their steps spent so, per plan and profile.
 
-    python -m tools.experiments.global_plan_readings runs/gp-noise/* --json
+    python -m tools.experiments.global_plan_readings runs/gp-noise/*/ --json
+
+``--compare FILE...`` instead prints one table row per ``d3dwa compare --json`` record (its ``all`` group):
+success with / without, the difference in points and the robot and BARN score differences with their 95 % t
+intervals, and the reading of each, as docs/design/global-plan.md#noise shows them.
 """
 
 from __future__ import annotations
@@ -258,6 +262,28 @@ def readings(dirs: Sequence[Path]) -> dict[str, Any]:
     }
 
 
+def compare_row(record: Mapping[str, Any], label: str) -> str:
+    """One page row from a ``d3dwa compare --json`` record's ``all`` group; ValueError if it has none."""
+    groups = {g["group"]: g for g in record.get("groups", [])}
+    if "all" not in groups:
+        raise ValueError(f"{label}: no 'all' group in the compare record")
+    r = groups["all"]["readings"]
+
+    def diff(metric: str, scale: float, digits: int) -> str:
+        m = r[metric]
+        low, high = (
+            f"{scale * m[b]:+.{digits}f}" if m[b] is not None else "-" for b in ("low", "high")
+        )
+        return f"{scale * m['difference']:+.{digits}f} [{low}, {high}]"
+
+    s = r["success"]
+    readings = "; ".join(f"{k} {r[k]['reading']}" for k in ("success", "score", "score_barn"))
+    return (
+        f"| {label} | {s['layouts']} | {100 * s['mean_a']:.1f} / {100 * s['mean_b']:.1f} | "
+        f"{diff('success', 100, 1)} | {diff('score', 1, 3)} | {diff('score_barn', 1, 3)} | {readings} |"
+    )
+
+
 @tool_main
 def main(argv: Sequence[str] | None = None) -> None:
     ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -265,10 +291,17 @@ def main(argv: Sequence[str] | None = None) -> None:
         "dirs", nargs="+", type=Path, help="results directories, with and without --global-plan"
     )
     ap.add_argument("--json", action="store_true")
+    ap.add_argument(
+        "--compare", action="store_true", help="the paths are `d3dwa compare --json` outputs"
+    )
     args = ap.parse_args(argv)
     try:
+        if args.compare:
+            for path in args.dirs:
+                print(compare_row(json.loads(path.read_text()), path.stem))
+            return
         report = readings(args.dirs)
-    except ValueError as err:
+    except (ValueError, KeyError) as err:
         ap.error(str(err))
     print(json.dumps(report) if args.json else text(report))
 
