@@ -15,7 +15,7 @@ Reads results directories of ``d3dwa eval`` / ``d3dwa sweep`` run with and witho
   the goal direction (a ``plan_status`` other than ok: no path, goal blocked, off the costmap), and the
   share of their steps spent so, per plan and profile.
 
-    python -m tools.experiments.global_plan_readings runs/gp-noise/*/ --json
+    python -m tools.experiments.global_plan_readings runs/gp-noise/*-*/ --json
 
 ``--compare FILE...`` instead prints one table row per ``d3dwa compare --json`` record (its ``all`` group):
 success with / without, the difference in points and the robot and BARN score differences with their 95 % t
