@@ -34,9 +34,11 @@ from typing import Any
 import numpy as np
 from statsmodels.stats.proportion import proportion_confint
 
+from d3dwa_bullet.errors import ResultsError
 from d3dwa_bullet.evaluation.columns import GLOBAL_PLAN_FIELD
 from d3dwa_bullet.evaluation.job import log_name
 from d3dwa_bullet.evaluation.results import read_results
+from d3dwa_bullet.loading import load_json
 from tools.entry import ToolParser, tool_main
 
 TARGET = 0.90
@@ -298,7 +300,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     try:
         if args.compare:
             for path in args.dirs:
-                print(compare_row(json.loads(path.read_text()), path.stem))
+                print(compare_row(load_json(path, ResultsError, "compare JSON"), path.stem))
             return
         report = readings(args.dirs)
     except (ValueError, KeyError) as err:
