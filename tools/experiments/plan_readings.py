@@ -87,21 +87,22 @@ class Plan:
 
 
 _BARN = ("d3dwa-barn", "d3dwa-weights-barn", "d3dwa-dr-barn")
+_QUESTIONS = (
+    ("d3dwa", "d3dwa-weights"),
+    ("d3dwa-dr", "d3dwa"),
+    ("d3dwa-dr", "dwa3"),
+    ("d3dwa", "random@10"),
+    ("d3dwa-dr", "random@10"),
+    ("d3dwa-weights", "random-weights@10"),
+)
+"""The three questions' six pairs, (a), (b) twice, (c) thrice: issue 79's plan reads these; the
+yardstick read them with each learned method against DWA III."""
 PLANS = {
     "yardstick": Plan(
         "docs/pilots/yardstick-barn/plan.md",
-        (
-            ("d3dwa", "d3dwa-weights"),
-            ("d3dwa-dr", "d3dwa"),
-            ("d3dwa-dr", "dwa3"),
-            ("d3dwa", "random@10"),
-            ("d3dwa-dr", "random@10"),
-            ("d3dwa-weights", "random-weights@10"),
-            ("d3dwa", "dwa3"),
-            ("d3dwa-weights", "dwa3"),
-        ),
+        (*_QUESTIONS, ("d3dwa", "dwa3"), ("d3dwa-weights", "dwa3")),
         MARGINS | {"success": 0.05},
-    ),  # fmt: skip
+    ),
     "barn-trained": Plan(
         "docs/pilots/barn-trained/plan.md",
         (
@@ -115,18 +116,7 @@ PLANS = {
             *((m, m.removesuffix("-barn")) for m in _BARN),
         ),
     ),  # fmt: skip
-    "recipes": Plan(
-        "docs/pilots/recipes/plan.md",
-        (
-            ("d3dwa", "d3dwa-weights"),
-            ("d3dwa-dr", "d3dwa"),
-            ("d3dwa-dr", "dwa3"),
-            ("d3dwa", "random@10"),
-            ("d3dwa-dr", "random@10"),
-            ("d3dwa-weights", "random-weights@10"),
-        ),
-        MARGINS | {"success": 0.05},
-    ),  # fmt: skip
+    "recipes": Plan("docs/pilots/recipes/plan.md", _QUESTIONS, MARGINS | {"success": 0.05}),
     "barn-trained-r-style": Plan(
         "docs/pilots/barn-trained/plan.md", tuple((m, m.removesuffix("-barn")) for m in _BARN)
     ),
