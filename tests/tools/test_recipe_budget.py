@@ -6,7 +6,8 @@ import pytest
 
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.recipe_sizing import Components
-from tools.experiments.recipe_budget import budget, cost_hours, main, named_numbers
+from tools.experiments.recipe_budget import budget, cost_hours, main
+from tools.experiments.recipe_sizing import named_numbers
 
 
 def _record(a: str, b: str, difference: float, seed_a: float, family: str = "R-style") -> dict:

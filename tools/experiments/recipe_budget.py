@@ -24,14 +24,12 @@ A planning figure, not a test: commit it before the plan it prices (docs/design/
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.page_width import fit_prose, split_columns
 from d3dwa_bullet.evaluation.plans.boundaries import boundaries, crossing_probability
 from d3dwa_bullet.evaluation.readings import ALPHA
@@ -40,28 +38,10 @@ from d3dwa_bullet.evaluation.recipe_tables import FAMILIES
 from tools.entry import ToolParser, tool_main
 from tools.experiments.plan_readings import PLANS
 from tools.experiments.power_plan import pilot_rows
-from tools.experiments.recipe_sizing import episode_costs, size_cells
+from tools.experiments.recipe_sizing import episode_costs, named_numbers, size_cells
 
 DRAWS = 4000
 """Monte Carlo draws of the cells' stopping looks for the sequential expectation."""
-
-
-def named_numbers(
-    given: Sequence[str], option: str, default_key: str | None = None
-) -> dict[str, float]:
-    """'NAME=X' values (and, with default_key, one bare 'X' for every name) as {name: x};
-    ConfigError naming the option and value for anything not a positive finite number."""
-    out: dict[str, float] = {}
-    for text in given:
-        name, _, value = text.rpartition("=")
-        try:
-            x = float(value)
-        except ValueError:
-            x = math.nan
-        if not (math.isfinite(x) and x > 0) or (not name and default_key is None):
-            raise ConfigError(f"{option} {text!r}: expected NAME=X with X a positive number")
-        out[name or default_key or ""] = x
-    return out
 
 
 def stop_chances(

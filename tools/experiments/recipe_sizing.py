@@ -42,24 +42,35 @@ OTHER = "other"
 """The family of a row neither BARN's nor a generated layout's (a shipped or given world)."""
 
 
+def named_numbers(
+    given: Sequence[str], option: str, default_key: str | None = None
+) -> dict[str, float]:
+    """'NAME=X' values (and, with default_key, one bare 'X' for every name) as {name: x};
+    ConfigError naming the option and value for anything not a positive finite number."""
+    out: dict[str, float] = {}
+    for text in given:
+        name, _, value = text.rpartition("=")
+        try:
+            x = float(value)
+        except ValueError:
+            x = math.nan
+        if not (math.isfinite(x) and x > 0):
+            raise ConfigError(f"{option} {text!r}: the number must be a positive finite number")
+        if not name and default_key is None:
+            raise ConfigError(f"{option} {text!r}: expected NAME=X")
+        out[name or default_key or ""] = x
+    return out
+
+
 def episode_costs(given: Sequence[str]) -> dict[str, float]:
     """--episode-seconds values ('FAMILY=S' or one 'S' for every family) as {family: s};
     ConfigError naming a value that is not a positive finite number or a family unknown."""
     known = (*FAMILIES, OTHER)
     out: dict[str, float] = {}
-    for text in given:
-        family, _, value = text.rpartition("=")
-        try:
-            seconds = float(value)
-        except ValueError:
-            seconds = math.nan
-        if not (math.isfinite(seconds) and seconds > 0):
-            raise ConfigError(
-                f"--episode-seconds {text!r}: the seconds must be a positive finite number"
-            )
+    for family, seconds in named_numbers(given, "--episode-seconds", default_key="").items():
         if family and family not in known:
             raise ConfigError(
-                f"--episode-seconds {text!r}: unknown family (one of {', '.join(known)})"
+                f"--episode-seconds {family}={seconds:g}: unknown family (one of {', '.join(known)})"
             )
         for f in (family,) if family else known:
             out[f] = seconds
