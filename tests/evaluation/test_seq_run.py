@@ -11,8 +11,15 @@ import pytest
 
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.plans import check_plan
-from d3dwa_bullet.evaluation.plans.run import LOOKS_LOG, LOOKS_PAGE, Key, code_identity, run_plan
-from d3dwa_bullet.loading import load_json_lines
+from d3dwa_bullet.evaluation.plans.run import (
+    LOOKS_LOG,
+    LOOKS_PAGE,
+    ORDER_RECORD,
+    Key,
+    code_identity,
+    run_plan,
+)
+from d3dwa_bullet.loading import load_json, load_json_lines
 
 PLAN: dict[str, Any] = {
     "name": "run test", "order_seed": 3, "alpha": 0.05, "spending": "lan-demets-obrien-fleming",
@@ -47,8 +54,8 @@ class Source:
             base = 0.3 + 0.01 * sorted(STRATA).index(layout) % 0.4
             shift = {"base": 0.0, "good": 0.3, "close": 0.005}[method]
             score = base + shift + rng.normal(0, 0.1 if profile == "harsh" else 0.01)
-            rows.append({"world": layout, "noise": profile, "method": method, "seed": 0, "outcome": "goal",
-                         "score": score})  # fmt: skip
+            rows.append({"world": layout, "noise": profile, "method": method, "seed": 0,
+                         "outcome": "timeout" if method == "base" else "goal", "score": score})  # fmt: skip
         return rows
 
 
@@ -72,6 +79,14 @@ def test_cells_stop_when_they_read_and_methods_when_no_open_cell_needs_them(tmp_
     )
     assert load_json_lines(tmp_path / LOOKS_LOG, ConfigError) == records
     assert "bound (difference)" in (tmp_path / LOOKS_PAGE).read_text()
+    # the other metrics with a margin ride beside, on the same layouts: success 1 - 0 here
+    plan2 = check_plan({**PLAN, "margins": {"score": 0.03, "success": 0.05}}, "plan.yaml", "b" * 64)
+    (tmp_path / "two").mkdir()
+    beside = run_plan(plan2, STRATA, Source(), tmp_path / "two", "0.1.0")[0]["beside"]
+    assert records[0]["beside"] == {} and beside["success"]["difference"] == pytest.approx(1.0)
+    # which layouts each look read: the family's order, its first `layouts`
+    order = load_json(tmp_path / ORDER_RECORD, ConfigError)["all"]
+    assert sorted(order) == sorted(STRATA) and order != sorted(STRATA)
     # resumed with the same plan and code: the same looks, the same log
     assert run_plan(plan, STRATA, Source(), tmp_path, "0.1.0") == records
 

@@ -10,7 +10,10 @@ plan's multiplicity control, ``recycling.read_look``: alpha, alpha / m, or Holm'
 level, carried from family to family); a cell that reads is closed; the family stops at its
 maximum or once no cell is open. Every look of every cell, with its level, is a line of
 ``looks.jsonl`` (rewritten whole after each look: a resumed run reads the same rows and
-so writes the same lines), and ``looks.md`` tabulates them.
+so writes the same lines), and ``looks.md`` tabulates them. Each line also carries ``beside``: the
+estimate of every other metric the plan gives a margin (success, BARN's score), on the same
+layouts, read by nobody's rule (a stop is the headline's). ``order.json`` holds each family's
+layouts in the plan's order, so a reader knows which layouts a look read (its first ``layouts``).
 
 A run records what it began with in ``plan.json`` (the plan file's sha256 and the code's
 identity, :func:`code_identity`); resuming with either changed is refused in one line saying
@@ -41,6 +44,7 @@ from d3dwa_bullet.loading import load_json
 PLAN_RECORD = "plan.json"
 LOOKS_LOG = "looks.jsonl"
 LOOKS_PAGE = "looks.md"
+ORDER_RECORD = "order.json"
 Key = tuple[str, str, str]
 """(layout, profile, method): the episodes of one method on one layout under one profile."""
 Source = Callable[[Sequence[Key]], Sequence[Row]]
@@ -98,12 +102,28 @@ def _family_order(plan: Plan, family: Family, strata: Mapping[str, str]) -> list
     return layout_order(by, plan.order_seed)
 
 
-def _read(plan: Plan, cell: Cell, profile: str, rows: Sequence[Row]) -> tuple[float, float, float]:
+def _read(
+    plan: Plan, cell: Cell, profile: str, rows: Sequence[Row], metric: str = ""
+) -> tuple[float, float, float]:
     try:
-        e = ESTIMATORS[cell.question](rows, cell.a, cell.b, plan.headline)
+        e = ESTIMATORS[cell.question](rows, cell.a, cell.b, metric or plan.headline)
     except ValueError as err:  # fewer than two layouts, or a value missing
         raise ResultsError(f"cell {cell.a},{cell.b} under {profile}: {err}") from err
     return e.mean, e.se, e.df
+
+
+def _beside(plan: Plan, cell: Cell, profile: str, rows: Sequence[Row]) -> dict[str, Any]:
+    """{metric: {difference, se, df}} of every non-headline metric with a margin (None where
+    the rows cannot give it: a value missing)."""
+    out: dict[str, Any] = {}
+    for metric in (m for m in plan.margins if m != plan.headline):
+        try:
+            d, se, df = _read(plan, cell, profile, rows, metric)
+        except ResultsError:
+            out[metric] = None
+            continue
+        out[metric] = {"difference": float(d), "se": float(se), "df": float(df)}
+    return out
 
 
 def run_plan(
@@ -117,6 +137,10 @@ def run_plan(
         _family_order(plan, family, strata) for family in plan.families
     ]  # refused before plan.json
     check_resume(out, plan, code)
+    atomic_write_text(
+        out / ORDER_RECORD,
+        json.dumps({f.name: order for f, order in zip(plan.families, orders, strict=True)}),
+    )
     margin, records = plan.margins[plan.headline], []
     levels, passed = Levels(plan.multiplicity, plan.alpha, plan.cell_count), np.zeros(1, dtype=int)
     for family, order in zip(plan.families, orders, strict=True):
@@ -129,7 +153,8 @@ def run_plan(
                 need = {m for c, p in open_cells if p == profile for m in (c.a, c.b)}
                 asked |= {(layout, profile, m) for layout in order[:n] for m in need}
             rows = [r for r in run(sorted(asked)) if r["world"] in read]
-            est = np.array([_read(plan, cell, profile, [r for r in rows if r["noise"] == profile])
+            by_profile = {p: [r for r in rows if r["noise"] == p] for p in plan.profiles}
+            est = np.array([_read(plan, cell, profile, by_profile[profile])
                             for cell, profile in open_cells]).T[:, None, :]  # fmt: skip
             codes, passed, level = read_look(est[0], est[1], est[2], margin, np.ones(est.shape[1:], dtype=bool), passed,
                                              levels, bounds, k)  # fmt: skip
@@ -145,7 +170,8 @@ def run_plan(
                                 "profile": profile, "look": k + 1, "layouts": n, "difference": float(d),
                                 "se": float(se), "df": float(df), "level": float(level[0, i]),
                                 "bound_difference": float(bound_d[0, i]), "bound_tost": float(bound_t[0, i]),
-                                "decision": DECISIONS[got]})  # fmt: skip
+                                "decision": DECISIONS[got],
+                                "beside": _beside(plan, cell, profile, by_profile[profile])})  # fmt: skip
                 if got == OPEN:
                     still.append((cell, profile))
             open_cells = still
