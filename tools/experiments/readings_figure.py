@@ -19,7 +19,7 @@ from typing import Any
 PANELS = (("score", "robot score, A - B"), ("success", "success, A - B [points]"))
 """The metrics drawn, in order, with their axis labels."""
 _COLOURS = {"none": "#4c72b0", "paper": "#8172b2", "real": "#dd8452", "harsh": "#c44e52"}
-_STYLE = {"A better": "o", "B better": "o", "equivalent": "o", "inconclusive": "x"}
+_STYLE = {"A better": "o", "B better": "o", "equivalent": "o", "inconclusive": "x", "open": "x"}
 
 
 def cell_name(record: Mapping[str, Any]) -> str:
@@ -29,10 +29,15 @@ def cell_name(record: Mapping[str, Any]) -> str:
 
 
 def draw(
-    records: Sequence[Mapping[str, Any]], path: Path, title: str, stratum: str | None = None
+    records: Sequence[Mapping[str, Any]],
+    path: Path,
+    title: str,
+    stratum: str | None = None,
+    panels: Sequence[tuple[str, str]] = PANELS,
 ) -> Path:
     """Write the figure of records (``plan_readings.read_cells``' records) to path (PNG): the
-    pooled cells, or with stratum the readings of that stratum (records read with strata)."""
+    pooled cells, or with stratum the readings of that stratum (records read with strata);
+    panels: (metric, axis label) drawn, in order. A cell still ``open`` is drawn as inconclusive."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -43,8 +48,10 @@ def draw(
     cells = list(dict.fromkeys(cell_name(r) for r in records))
     profiles = list(dict.fromkeys(r["profile"] for r in records))
     height = 1.2 + 0.42 * len(cells) * max(1, len(profiles)) / 2
-    fig, axes = plt.subplots(1, len(PANELS), figsize=(11.0, height), sharey=True)
-    for ax, (metric, label) in zip(axes, PANELS, strict=True):
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.5 + 5.5 * (len(panels) > 1), height), sharey=True,
+                             squeeze=False)  # fmt: skip
+    axes = axes[0]
+    for ax, (metric, label) in zip(axes, panels, strict=True):
         scale = 100.0 if metric == "success" else 1.0
         margin = None
         for r in records:
