@@ -193,3 +193,19 @@ def test_a_plan_across_settings_reads_a_method_against_itself(tmp_path: Path) ->
         "`dwa3 [global-plan scan]` vs `dwa3 [global-plan none]`"
         in (tmp_path / LOOKS_PAGE).read_text()
     )
+
+
+def test_issue_80s_committed_plan_reads_each_method_against_itself_across_the_plan() -> None:
+    path = REPO / "docs/pilots/global-plan-sequential/plan.yaml"
+    plan = load_plan(path)
+    assert [c.sides for c in plan.cells] == [("dwa3 [global-plan scan]", "dwa3 [global-plan none]"),
+                                             ("d3dwa [global-plan scan]", "d3dwa [global-plan none]")]  # fmt: skip
+    assert [c.question for c in plan.cells] == ["policies", "recipe"] and plan.seeds == {"d3dwa": 5}
+    assert (
+        plan.cell_count == 6
+        and plan.multiplicity == "holm"
+        and plan.families[0].looks == (20, 35, 50)
+    )
+    assert setting_dirs(plan, "none") == {"scan": "global-plan-scan", "none": "global-plan-none"}
+    with pytest.raises(ConfigError, match="--global-plan scan: every cell"):
+        check_setting_options(plan, "scan", reuse=False)
