@@ -36,6 +36,7 @@ from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.noise_axes import AXES
 from d3dwa_bullet.evaluation.plans.plan_file import Plan, check_fits, load_plan
 from d3dwa_bullet.evaluation.plans.plan_seeds import with_plan_seeds
+from d3dwa_bullet.evaluation.plans.setting_sides import check_setting_options, setting_dirs
 from d3dwa_bullet.evaluation.policy_runs import check_policy_root
 from d3dwa_bullet.evaluation.results import read_meta
 from d3dwa_bullet.evaluation.reuse import reuse_arg, reused_lines
@@ -142,6 +143,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     plan = load_plan(args.plan) if args.plan else None
     if plan is not None:
         check_fits(plan, settings.methods, settings.profiles)
+        check_setting_options(plan, config.global_plan_name, args.reuse is not None)
         settings = with_plan_seeds(settings, plan, policy)  # each method's seeds, or a refusal
     # a bad or empty world file is refused before any episode
     worlds = [load_cli_world(w, args.allow_empty, warn=False) for w in settings.worlds]
@@ -153,6 +155,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     check_distinct([Job(w, settings.methods[0], 0, "none") for w in worlds])
     reuse = reuse_arg(args.reuse, args.reuse_check, args.out)
     out = check_out_dir(args.out, subdirs=("logs", "figures"))
+    for name in setting_dirs(plan, config.global_plan_name).values() if plan is not None else ():
+        check_out_dir(out / name, subdirs=("logs", "figures"))  # one sweep directory a setting
     if plan is not None:
         return _run_plan(args, settings, plan, out, workers, config, policy, reuse)
     rows, complete = run_sweep(
@@ -190,4 +194,6 @@ def _run_plan(args: argparse.Namespace, settings: SweepSettings, plan: Plan, out
         print(f"{family}: {a} vs {b} under {profile}: {r['decision']} at look {r['look']} "
               f"({r['layouts']} layouts, A - B {r['difference']:+.4f})")  # fmt: skip
     print(f"looks:   {out / 'looks.md'} ({out / 'looks.jsonl'})")
+    for setting, name in setting_dirs(plan, config.global_plan_name).items():
+        print(f"episodes with --global-plan {setting}: {out / name}")
     return 0

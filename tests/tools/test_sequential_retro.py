@@ -81,6 +81,16 @@ def test_refusals() -> None:
         ConfigError, match="multiplicity holm: the retro-check replays each cell at alpha"
     ):
         replay(rows, check_plan(PLAN | {"multiplicity": "holm"}, "plan.yaml"), orders=0)
+    # one directory holds one --global-plan setting: both sides would be its episodes, read as a tie
+    across = PLAN | {
+        "cells": [
+            {"a": "good", "b": "good", "question": "policies", "global_plan": ["scan", "none"]}
+        ]
+    }
+    with pytest.raises(
+        ConfigError, match=r"cell good,good: global_plan \['scan', 'none'\] reads across settings"
+    ):
+        replay(rows, check_plan(across, "plan.yaml"), orders=0)
 
 
 def test_bad_input_is_one_line_and_exit_two(

@@ -57,7 +57,8 @@ def answers(plan: Plan, looks: Sequence[Mapping[str, Any]]) -> list[dict[str, An
     for family in plan.families:
         for cell in plan.cells:
             for profile in plan.profiles:
-                r = last.get((family.name, cell.a, cell.b, profile))
+                a, b = cell.sides
+                r = last.get((family.name, a, b, profile))
                 if r is None:
                     continue
                 bound = r["bound_tost"] if r["decision"] == "equivalent" else r["bound_difference"]
@@ -71,7 +72,7 @@ def answers(plan: Plan, looks: Sequence[Mapping[str, Any]]) -> list[dict[str, An
                     )
                     beside[metric] = e and {"difference": e["difference"], "low": e["difference"] - q,
                                             "high": e["difference"] + q}  # fmt: skip
-                out.append({"family": family.name, "a": cell.a, "b": cell.b, "profile": profile,
+                out.append({"family": family.name, "a": a, "b": b, "profile": profile,
                             "question": cell.question, "decision": r["decision"], "look": r["look"],
                             "layouts": r["layouts"], "difference": r["difference"],
                             "low": r["difference"] - h, "high": r["difference"] + h, "beside": beside})  # fmt: skip

@@ -15,9 +15,10 @@ every layout), whether they agree, and over ``--orders`` further orders (seeds o
         --plan docs/pilots/yardstick-barn/sequential-retro.yaml --orders 200
 
 Only the ``policies`` question replays here (each side averaged over its seeds on a layout, the
-fixed-N reading's question); a ``recipe`` cell is refused until its estimator is wired, and so is a
-plan naming a multiplicity control (each cell replays at the plan's alpha). A plan's ``seeds``
-keep each listed method to its N lowest training seeds in the rows (``plan_seeds.plan_seed_rows``).
+fixed-N reading's question); a ``recipe`` cell is refused until its estimator is wired, and so are
+a cell across global-plan settings (one directory holds one setting) and a plan naming a
+multiplicity control (each cell replays at the plan's alpha). A plan's ``seeds`` keep each listed
+method to its N lowest training seeds in the rows (``plan_seeds.plan_seed_rows``).
 """
 
 from __future__ import annotations
@@ -81,6 +82,12 @@ def replay(rows: Rows, plan: Plan, orders: int) -> dict[str, Any]:
         raise ConfigError(
             f"cell {bad[0].a},{bad[0].b}: question {bad[0].question!r} does not replay here "
             "(only 'policies': its estimator is not wired)"
+        )
+    across = [c for c in plan.cells if c.global_plan]
+    if across:  # one results directory holds one --global-plan setting: both sides would be its
+        raise ConfigError(
+            f"cell {across[0].a},{across[0].b}: global_plan {list(across[0].global_plan or ())} reads "
+            "across settings, which one results directory does not hold (run it with d3dwa sweep --plan)"
         )
     rows = plan_seed_rows(rows, plan)  # a plan with seeds reads its methods' lowest N only
     if plan.multiplicity != "none":

@@ -15,7 +15,13 @@ A plan fixes before its first episode (docs/design/sequential-plans.md):
   apart, each with its strata (interleaved in the order), its looks (increasing layout counts)
   and its maximum (the last look, appended when the looks stop short of it);
 - ``cells``: [{a, b, question}]: the pairs A, B and what each reads: ``policies`` (the
-  training seeds fixed) or ``recipe`` (the training seed a random effect);
+  training seeds fixed) or ``recipe`` (the training seed a random effect); a cell may add
+  ``global_plan: [A's, B's]``, two different ``--global-plan`` values, to read its sides across
+  that setting (then a and b may be one method: ``{a: dwa3, b: dwa3, global_plan: [scan, none]}``).
+  Each side of such a cell is labelled ``<method> [global-plan <value>]`` (:func:`side_label`),
+  the name its episodes carry in the plan's reading and its looks.jsonl / looks.md; a cell
+  without the field reads under the sweep's own ``--global-plan``, its sides named by their
+  methods (docs/design/sequential-plans.md#across-a-setting);
 - ``seeds`` (optional): {method: N}, the training seeds each learned method brings: its N
   lowest-numbered seed folders, fixed before any episode (``plan_seeds.py`` checks the folder
   holds them); when given, every learned side of a ``recipe`` cell is listed;
@@ -26,7 +32,9 @@ Bad input is a ConfigError of one line naming the file, the field and the value:
 unknown field, a margin not a positive finite number, an alpha outside (0, 0.5), looks that do
 not increase, a maximum below the first look (or a look beyond it), a seed count that is not a
 whole number >= 1, a fixed method (no training seed) or one no cell names listed in ``seeds``,
-an unknown multiplicity control.
+an unknown multiplicity control, a cell's ``global_plan`` that is not a list of two
+``--global-plan`` values (``none``, ``scan``, ``map``: a sweep's episodes always have their world's
+map, so ``map`` always runs) or names one twice.
 """
 
 from __future__ import annotations
@@ -46,6 +54,7 @@ from d3dwa_bullet.io import read_text
 from d3dwa_bullet.limits import MAX_DOCUMENT_BYTES
 from d3dwa_bullet.loading import parse_yaml
 from d3dwa_bullet.method_specs import method_family
+from d3dwa_bullet.planning.global_plan_params import GLOBAL_PLANS
 
 SPENDING = ("lan-demets-obrien-fleming",)
 """The alpha-spending functions a plan may name."""
@@ -55,6 +64,13 @@ OPTIONAL = ("seeds", "multiplicity")
 """Fields a plan may leave out (a plan without them reads as before they existed)."""
 FAMILY_FIELDS = ("strata", "looks", "maximum")
 CELL_FIELDS = ("a", "b", "question")
+CELL_OPTIONAL = ("global_plan",)
+"""A cell's optional field: its two sides' ``--global-plan`` values (the module's docstring)."""
+
+
+def side_label(method: str, global_plan: str) -> str:
+    """The name of a cell's side run under a ``--global-plan`` value: ``dwa3 [global-plan scan]``."""
+    return f"{method} [global-plan {global_plan}]"
 
 
 @dataclass(frozen=True)
@@ -78,11 +94,22 @@ class Family:
 
 @dataclass(frozen=True)
 class Cell:
-    """A pair A, B and the question its reading answers (one of :data:`QUESTIONS`)."""
+    """A pair A, B and the question its reading answers (one of :data:`QUESTIONS`), each side
+    under the sweep's ``--global-plan`` or, with global_plan, under its own."""
 
     a: str
     b: str
     question: str
+    global_plan: tuple[str, str] | None = None
+    """(A's, B's) ``--global-plan`` values; None: both under the sweep's."""
+
+    @property
+    def sides(self) -> tuple[str, str]:
+        """The names A's and B's episodes carry in the plan's reading: the methods, or with
+        global_plan each one's :func:`side_label`."""
+        if self.global_plan is None:
+            return self.a, self.b
+        return side_label(self.a, self.global_plan[0]), side_label(self.b, self.global_plan[1])
 
 
 @dataclass(frozen=True)
@@ -110,6 +137,12 @@ class Plan:
     def methods(self) -> tuple[str, ...]:
         """Every method a cell names, in the cells' order."""
         return tuple(dict.fromkeys(m for c in self.cells for m in (c.a, c.b)))
+
+    @property
+    def global_plans(self) -> tuple[str, ...]:
+        """Every ``--global-plan`` value a cell's global_plan names, in the cells' order
+        (empty when no cell has the field)."""
+        return tuple(dict.fromkeys(g for c in self.cells for g in c.global_plan or ()))
 
     @property
     def cell_count(self) -> int:
@@ -189,6 +222,22 @@ def _margin(metric: str, value: Any, where: str) -> float:
     return float(value)
 
 
+def _global_plan(value: Any, where: str) -> tuple[str, str]:
+    """A cell's global_plan: two different ``--global-plan`` values."""
+    if not isinstance(value, list) or len(value) != 2:
+        raise ConfigError(
+            f"{where}: must be a list of two --global-plan values [A's, B's], got {value!r}"
+        )
+    for i, v in enumerate(value):
+        if not isinstance(v, str) or v not in GLOBAL_PLANS:
+            raise ConfigError(
+                f"{where}[{i}]: must be a --global-plan value ({', '.join(GLOBAL_PLANS)}), got {v!r}"
+            )
+    if value[0] == value[1]:
+        raise ConfigError(f"{where}: the two sides must differ, got {value[0]!r} twice")
+    return value[0], value[1]
+
+
 def _family_of(method: str, where: str) -> str:
     try:
         return method_family(method)
@@ -262,16 +311,21 @@ def check_plan(data: Any, source: str, digest: str = "") -> Plan:
     cells = []
     for i, value in enumerate(d["cells"]):
         where = f"{source}: cells[{i}]"
-        c = _fields(value, CELL_FIELDS, where)
+        c = _fields(value, CELL_FIELDS, where, CELL_OPTIONAL)
         a, b = _name(c["a"], f"{where}.a"), _name(c["b"], f"{where}.b")
-        if a == b:
-            raise ConfigError(f"{where}: a and b must differ, got {a!r} twice")
+        across = (
+            _global_plan(c["global_plan"], f"{where}.global_plan") if "global_plan" in c else None
+        )
+        if a == b and across is None:
+            raise ConfigError(
+                f"{where}: a and b must differ, got {a!r} twice (or read it across a setting: global_plan)"
+            )
         if c["question"] not in QUESTIONS:
             raise ConfigError(
                 f"{where}.question: must be one of {', '.join(sorted(QUESTIONS))}, got {c['question']!r}"
             )
-        cells.append(Cell(a, b, c["question"]))
-    if len({(c.a, c.b) for c in cells}) != len(cells):
+        cells.append(Cell(a, b, c["question"], across))
+    if len({c.sides for c in cells}) != len(cells):
         raise ConfigError(f"{source}: cells: a pair is given twice")
     seeds = _seeds(d["seeds"], cells, source) if "seeds" in d else {}
     multiplicity = d.get("multiplicity", "none")

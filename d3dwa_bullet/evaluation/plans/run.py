@@ -2,8 +2,9 @@
 
 :func:`run_plan` drives any source of episodes through a plan (docs/design/sequential-plans.md):
 per family, the layouts in the plan's order; at each look the episodes the open cells still
-need (a method under a profile runs only while an open cell of that profile names it) are asked
-of ``run`` (every key asked so far, so a source that skips finished episodes resumes), then each
+need (a side under a profile runs only while an open cell of that profile names it; a side is
+named by ``Cell.sides``: its method, unless the cell reads across a setting) are asked of
+``run`` (every key asked so far, so a source that skips finished episodes resumes), then each
 open cell is read on the headline metric (its question's estimator, ``looks.ESTIMATORS``)
 against the look's boundaries (``student.rule_boundaries``: for the t) at the cell's level (the
 plan's multiplicity control, ``recycling.read_look``: alpha, alpha / m, or Holm's recycled
@@ -46,7 +47,8 @@ LOOKS_LOG = "looks.jsonl"
 LOOKS_PAGE = "looks.md"
 ORDER_RECORD = "order.json"
 Key = tuple[str, str, str]
-"""(layout, profile, method): the episodes of one method on one layout under one profile."""
+"""(layout, profile, side): the episodes of one side of a cell (its method, or its
+``plan_file.side_label``: ``Cell.sides``) on one layout under one profile."""
 Source = Callable[[Sequence[Key]], Sequence[Row]]
 """Runs (or finds) the episodes of every key given and returns their rows."""
 
@@ -105,10 +107,11 @@ def _family_order(plan: Plan, family: Family, strata: Mapping[str, str]) -> list
 def _read(
     plan: Plan, cell: Cell, profile: str, rows: Sequence[Row], metric: str = ""
 ) -> tuple[float, float, float]:
+    a, b = cell.sides
     try:
-        e = ESTIMATORS[cell.question](rows, cell.a, cell.b, metric or plan.headline)
+        e = ESTIMATORS[cell.question](rows, a, b, metric or plan.headline)
     except ValueError as err:  # fewer than two layouts, or a value missing
-        raise ResultsError(f"cell {cell.a},{cell.b} under {profile}: {err}") from err
+        raise ResultsError(f"cell {a},{b} under {profile}: {err}") from err
     return e.mean, e.se, e.df
 
 
@@ -150,7 +153,7 @@ def run_plan(
         for k, n in enumerate(family.looks):
             read = set(order[:n])
             for profile in plan.profiles:
-                need = {m for c, p in open_cells if p == profile for m in (c.a, c.b)}
+                need = {m for c, p in open_cells if p == profile for m in c.sides}
                 asked |= {(layout, profile, m) for layout in order[:n] for m in need}
             rows = [r for r in run(sorted(asked)) if r["world"] in read]
             by_profile = {p: [r for r in rows if r["noise"] == p] for p in plan.profiles}
@@ -166,7 +169,8 @@ def run_plan(
                 d, se, df = est[:, 0, i]
                 if got == OPEN and k == len(family.looks) - 1:
                     got = INCONCLUSIVE
-                records.append({"family": family.name, "a": cell.a, "b": cell.b, "question": cell.question,
+                side_a, side_b = cell.sides
+                records.append({"family": family.name, "a": side_a, "b": side_b, "question": cell.question,
                                 "profile": profile, "look": k + 1, "layouts": n, "difference": float(d),
                                 "se": float(se), "df": float(df), "level": float(level[0, i]),
                                 "bound_difference": float(bound_d[0, i]), "bound_tost": float(bound_t[0, i]),
