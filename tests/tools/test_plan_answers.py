@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -13,8 +14,9 @@ import yaml
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.evaluation.plans.plan_file import load_plan
 from d3dwa_bullet.evaluation.plans.run import ORDER_RECORD, run_plan
+from d3dwa_bullet.evaluation.results import CSV_FIELDS
 from d3dwa_bullet.loading import load_json
-from tools.experiments.plan_answers import answers, half_width, load_run, main
+from tools.experiments.plan_answers import answers, cost, half_width, load_run, main
 
 PLAN: dict[str, Any] = {
     "name": "answers test", "order_seed": 5, "alpha": 0.05, "spending": "lan-demets-obrien-fleming",
@@ -74,3 +76,18 @@ def test_the_page_the_figure_and_a_plan_that_is_not_the_runs(tmp_path: Path, cap
     assert main([str(out), "--plan", str(other)]) == 2
     err = capsys.readouterr().err
     assert "not the plan" in err and len(err.strip().splitlines()) == 1
+
+
+def test_the_cost_counts_the_episodes_held_against_the_fixed_design(tmp_path: Path) -> None:
+    plan_path, out = _run(tmp_path)
+    plan = load_plan(plan_path)
+    read = load_json(out / ORDER_RECORD, ConfigError)["R"][:20]  # look 1 read every method here
+    extra = {"time_s": 9.0, "tl_m": 2.0, "pd_rad": 0.1, "min_clearance_m": 0.3, "steps": 90, "score_barn": 0.2,
+             "reference_length_m": 2.0, "policy_seed": ""}  # fmt: skip
+    with open(out / "results.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, CSV_FIELDS, extrasaction="ignore")
+        writer.writeheader()
+        for r in source([(layout, "none", m) for layout in read for m in ("base", "good", "same")]):
+            writer.writerow({**r, **extra})
+    # three runs on each of the maximum's 40 layouts against the 60 episodes held
+    assert cost(plan, out) == [{"family": "R", "episodes": 60, "fixed": 120, "ratio": 2.0}]

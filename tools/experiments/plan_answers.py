@@ -18,7 +18,11 @@ margins and the headline are its. A run still going prints its open cells as ``o
     python -m tools.experiments.plan_answers runs/recipes --plan docs/pilots/recipes/plan.yaml \\
         --figure docs/pilots/recipes/answers.png
 
-``--json`` prints the records; ``--figure PATH`` draws the headline's readings (one line per family and
+**The cost** closes the page: per family, the episodes the run holds against the fixed design's (every
+layout of the family's maximum, every run seen there under each profile: method, training seed and
+evaluation seed), and their ratio.
+
+``--json`` prints the records (and the cost); ``--figure PATH`` draws the headline's readings (one line per family and
 cell, a marker per profile) against the margin (``readings_figure``).
 """
 
@@ -34,11 +38,15 @@ from scipy import stats
 from d3dwa_bullet.errors import ConfigError, ResultsError
 from d3dwa_bullet.evaluation.page_width import split_columns
 from d3dwa_bullet.evaluation.plans.plan_file import Plan, load_plan
-from d3dwa_bullet.evaluation.plans.run import LOOKS_LOG, PLAN_RECORD
+from d3dwa_bullet.evaluation.plans.run import LOOKS_LOG, ORDER_RECORD, PLAN_RECORD
+from d3dwa_bullet.evaluation.plans.setting_sides import SETTING_DIR
+from d3dwa_bullet.evaluation.sweep import read_sweep
 from d3dwa_bullet.loading import load_json, load_json_lines
 from tools.entry import ToolParser, tool_main
 from tools.experiments import readings_figure
 
+RESULTS = "results.csv"
+"""A sweep directory's episodes."""
 BESIDE_LEVEL = 0.95
 """The plain interval of a metric beside the headline."""
 
@@ -79,6 +87,27 @@ def answers(plan: Plan, looks: Sequence[Mapping[str, Any]]) -> list[dict[str, An
     return out
 
 
+def cost(plan: Plan, out: Path) -> list[dict[str, Any]]:
+    """Per family {family, episodes, fixed, ratio}: the episodes out holds (in out, or in each
+    setting's subdirectory of a plan across settings) against the fixed design's: under each
+    profile, every run seen there (method, training seed, evaluation seed) on every layout of the
+    family's maximum."""
+    order = load_json(out / ORDER_RECORD, ResultsError)
+    dirs = [d.parent for d in [out / RESULTS, *sorted(out.glob(f"{SETTING_DIR.format('*')}/{RESULTS}"))]
+            if d.exists()]  # fmt: skip
+    rows = [r for d in dirs for r in read_sweep(d)]
+    out_rows = []
+    for family in plan.families:
+        layouts = set(order.get(family.name, ()))
+        mine = [r for r in rows if r["world"] in layouts and r["noise"] in plan.profiles]
+        units = {(str(r.get("global_plan") or ""), r["noise"], r["method"], r.get("policy_seed"), r["seed"])
+                 for r in mine}  # fmt: skip
+        fixed = len(units) * family.maximum
+        out_rows.append({"family": family.name, "episodes": len(mine), "fixed": fixed,
+                         "ratio": fixed / len(mine) if mine else None})  # fmt: skip
+    return out_rows
+
+
 def _interval(e: Mapping[str, float] | None, scale: float = 1.0) -> str:
     if not e:
         return "-"
@@ -102,6 +131,25 @@ def markdown(plan: Plan, records: Sequence[Mapping[str, Any]]) -> str:
                      + split_columns(head, ["---", "---", "---", "---:"] + ["---:"] * (1 + len(others)), body,
                                      keys=2))  # fmt: skip
     return f"# Answers of {plan.name}\n\n" + "\n\n".join(parts) + "\n"
+
+
+def cost_markdown(rows: Sequence[Mapping[str, Any]]) -> str:
+    """The cost table: per family the episodes run, the fixed design's, and fixed / run."""
+    body = [[r["family"], f"{r['episodes']:,}", f"{r['fixed']:,}", f"{r['ratio']:.2f}x" if r["ratio"] else "-"]
+            for r in rows]  # fmt: skip
+    total = [sum(r[k] for r in rows) for k in ("episodes", "fixed")]
+    body.append(
+        [
+            "all",
+            f"{total[0]:,}",
+            f"{total[1]:,}",
+            f"{total[1] / total[0]:.2f}x" if total[0] else "-",
+        ]
+    )
+    table = split_columns(
+        ["family", "episodes run", "fixed design", "fixed / run"], ["---"] + ["---:"] * 3, body
+    )
+    return "## Cost\n\n" + table + "\n"
 
 
 def figure(plan: Plan, records: Sequence[Mapping[str, Any]], path: Path) -> Path:
@@ -137,10 +185,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--figure", type=Path, help="draw the headline's readings to this PNG")
     args = parser.parse_args(argv)
     plan, looks = load_run(args.out, args.plan)
-    records = answers(plan, looks)
+    records, spent = answers(plan, looks), cost(plan, args.out)
     if args.figure:
         figure(plan, records, args.figure)
-    print(json.dumps(records, indent=1) if args.json else markdown(plan, records))
+    if args.json:
+        print(json.dumps({"cells": records, "cost": spent}, indent=1))
+    else:
+        print(markdown(plan, records) + "\n" + cost_markdown(spent))
     return 0
 
 
