@@ -16,7 +16,8 @@ The path (:mod:`~d3dwa_bullet.planning.costmap`) runs from the estimated pose to
 replanned every ``replan_period`` seconds (Nav2's default tree: 1 Hz) and, with ``scan``, at once
 when a return of the present scan lies on the path ahead (closer than r + m less a cell). The
 carrot is ``lookahead`` metres along the path from its point nearest the robot (the goal once
-less remains). No path, a goal inside an obstacle (its cell lethal) or a robot outside the
+less remains), or with the ``sight`` rule the end of the stretch of it the robot sees in a
+straight line on the costmap (:mod:`~d3dwa_bullet.planning.carrot`). No path, a goal inside an obstacle (its cell lethal) or a robot outside the
 costmap: the status says so, the episode logs it, and the carrot is the goal itself (the local
 planner falls back to the goal direction, as without a plan).
 """
