@@ -2,8 +2,8 @@
 # The carrot pilot and its one challenge run (README.md here), fixed before the first episode. Run from the
 # repository root; results go to runs/carrot/ (not committed). Resumable: run it again to finish what was cut short.
 #   run.sh pilot                   BARN train, 50 worlds, DWA III and d3dwa seed 0, --carrot along against sight
-#   RULE=along|sight run.sh none   BARN challenge, no noise, both rules (the paired check against the old rule)
-#   RULE=along|sight run.sh noise  BARN challenge, real and harsh, the rule the pilot picked (RULE)
+#   RULE=along|sight run.sh none   BARN challenge, no noise, both rules, the pilot's pick (RULE) first
+#   RULE=along|sight run.sh noise  BARN challenge, real and harsh, both rules, RULE first
 # Every part grows its directories in chunks of worlds, so a run cut short by time leaves both sides of every
 # comparison on the same worlds.
 set -e
@@ -22,24 +22,29 @@ pilot() {
   done
 }
 need_rule() {
-  case "$RULE" in along|sight) ;; *) echo "run.sh: RULE must be along or sight (the pilot's pick)" >&2; exit 2;; esac
+  case "$RULE" in
+    along) other=sight ;;
+    sight) other=along ;;
+    *) echo "run.sh: RULE must be along or sight (the pilot's pick)" >&2; exit 2 ;;
+  esac
 }
-none() {
+none() {  # both rules, the pilot's pick first, paired by world in one code version
   need_rule
-  rules=$RULE; [ "$RULE" = sight ] && rules="sight along"   # the old rule too, paired by world
   for last in 96 198 294; do      # 17, 34, 50 of the challenge worlds (0, 6, ..., last)
-    for rule in $rules; do
+    for rule in $RULE $other; do
       $PY -m d3dwa_bullet.cli eval --suite barn --split challenge --world-ids "$(seq -s, 0 6 $last)" $COMMON \
         --carrot $rule --out $OUT/challenge-none-$rule
     done
   done
 }
-noise() {
+noise() {  # real and harsh, both rules, the pilot's pick first
   need_rule
   for last in 96 198 294; do
     for profile in real harsh; do
-      $PY -m d3dwa_bullet.cli eval --suite barn --split challenge --world-ids "$(seq -s, 0 6 $last)" $COMMON \
-        --noise $profile --carrot $RULE --out $OUT/challenge-$profile-$RULE
+      for rule in $RULE $other; do
+        $PY -m d3dwa_bullet.cli eval --suite barn --split challenge --world-ids "$(seq -s, 0 6 $last)" $COMMON \
+          --noise $profile --carrot $rule --out $OUT/challenge-$profile-$rule
+      done
     done
   done
 }
