@@ -21,15 +21,8 @@ carrot across a corner points into the corner).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from skimage.draw import line
-
-
-def nearest_index(path: np.ndarray, pose: tuple[float, ...]) -> int:
-    """Index of path's (K, 2) m point nearest pose (x, y, ...) m."""
-    return int(np.argmin(np.hypot(path[:, 0] - pose[0], path[:, 1] - pose[1])))
 
 
 def point_at(path: np.ndarray, arc: np.ndarray, s: float) -> np.ndarray:
@@ -85,8 +78,9 @@ def carrot_point(
     (K >= 2, 2) m with arc (K,) its cumulative length. ``sight`` reads lethal ((ny, nx) bool, the
     costmap's lethal cells, with origin and resolution m; None: nothing lethal, the ``along``
     carrot) and ignores cells within ignore m of the pose."""
-    k = nearest_index(path, pose)
-    left = float(math.hypot(path[k, 0] - pose[0], path[k, 1] - pose[1]) + arc[-1] - arc[k])
+    d = np.hypot(path[:, 0] - pose[0], path[:, 1] - pose[1])
+    k = int(np.argmin(d))
+    left = float(d[k] + arc[-1] - arc[k])
     target = arc[k] + lookahead
     ahead = point_at(path, arc, target)
     if rule == "along" or lethal is None:

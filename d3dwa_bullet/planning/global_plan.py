@@ -17,9 +17,10 @@ replanned every ``replan_period`` seconds (Nav2's default tree: 1 Hz) and, with 
 when a return of the present scan lies on the path ahead (closer than r + m less a cell). The
 carrot is ``lookahead`` metres along the path from its point nearest the robot (the goal once
 less remains), or with the ``sight`` rule the end of the stretch of it the robot sees in a
-straight line on the costmap (:mod:`~d3dwa_bullet.planning.carrot`). No path, a goal inside an obstacle (its cell lethal) or a robot outside the
-costmap: the status says so, the episode logs it, and the carrot is the goal itself (the local
-planner falls back to the goal direction, as without a plan).
+straight line on the costmap (:mod:`~d3dwa_bullet.planning.carrot`). No path, a goal inside an
+obstacle (its cell lethal) or a robot outside the costmap: the status says so, the episode logs
+it, and the carrot is the goal itself (the local planner falls back to the goal direction, as
+without a plan).
 """
 
 from __future__ import annotations
