@@ -79,7 +79,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    kinds = ("scan", "map") if args.map else ("scan",)
+    kinds: tuple[str, ...] = ("scan", "map") if args.map else ("scan",)
     kinds += ("scan+sight",) if args.sight else ()
     out = bench(args.method, [int(w) for w in args.worlds.split(",")], kinds)
     print(json.dumps(out) if args.json else json.dumps(out, indent=2))
