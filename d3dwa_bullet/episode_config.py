@@ -13,7 +13,7 @@ from d3dwa_bullet.params import (
     SimParams,
     TerminationParams,
 )
-from d3dwa_bullet.planning.global_plan_params import GlobalPlanParams
+from d3dwa_bullet.planning.global_plan_params import GlobalPlanParams, plan_name
 from d3dwa_bullet.planning.scan_filter import check_scan_filter
 from d3dwa_bullet.sim.backend import DEFAULT_BACKEND, check_backend
 from d3dwa_bullet.sim.lidar_params import LidarParams
@@ -51,5 +51,6 @@ class EpisodeConfig:
 
     @property
     def global_plan_name(self) -> str:
-        """The ``--global-plan`` name of this config: "none", "scan" or "map"."""
-        return "none" if self.global_plan is None else self.global_plan.kind
+        """The ``--global-plan`` name results carry for this config: "none", "scan" or "map",
+        with "+sight" under the ``sight`` carrot (``global_plan_params.plan_name``)."""
+        return plan_name(self.global_plan)

@@ -130,6 +130,8 @@ def _check_settings(out: Path, config: Any, settings: Mapping[str, Any]) -> None
     here = config_record(config)
     if isinstance(meta.get("config"), dict):  # a directory from before backends ran PyBullet
         meta["config"].setdefault("backend", "pybullet")
+        if isinstance(meta["config"].get("global_plan"), dict):  # from before the sight carrot
+            meta["config"]["global_plan"].setdefault("carrot", "along")
     diffs = "; ".join(
         f"{name} {old!r} there, {new!r} here"
         for name, old, new in differences(meta.get("config", here), here)

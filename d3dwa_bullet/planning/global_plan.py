@@ -16,9 +16,11 @@ The path (:mod:`~d3dwa_bullet.planning.costmap`) runs from the estimated pose to
 replanned every ``replan_period`` seconds (Nav2's default tree: 1 Hz) and, with ``scan``, at once
 when a return of the present scan lies on the path ahead (closer than r + m less a cell). The
 carrot is ``lookahead`` metres along the path from its point nearest the robot (the goal once
-less remains). No path, a goal inside an obstacle (its cell lethal) or a robot outside the
-costmap: the status says so, the episode logs it, and the carrot is the goal itself (the local
-planner falls back to the goal direction, as without a plan).
+less remains), or with the ``sight`` rule the end of the stretch of it the robot sees in a
+straight line on the costmap (:mod:`~d3dwa_bullet.planning.carrot`). No path, a goal inside an
+obstacle (its cell lethal) or a robot outside the costmap: the status says so, the episode logs
+it, and the carrot is the goal itself (the local planner falls back to the goal direction, as
+without a plan).
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from scipy.spatial import cKDTree
 from d3dwa_bullet.errors import ConfigError
 from d3dwa_bullet.geometry import wrap_angle
 from d3dwa_bullet.params import PlannerParams
+from d3dwa_bullet.planning.carrot import carrot_point
 from d3dwa_bullet.planning.costmap import (
     RESOLUTION,
     cell_costs,
@@ -106,6 +109,9 @@ class GlobalPlanner:
         self._next = -math.inf
         self._tree: cKDTree | None = None
         self._arc = np.zeros(0)
+        self._lethal: np.ndarray | None = None
+        """(ny, nx) bool: the lethal cells of the costmap the last path was planned on."""
+        self._last: tuple[tuple[float, ...], tuple[tuple[float, float], float]] | None = None
 
     def update(self, t: float, pose: Pose, points: np.ndarray) -> tuple[float, float]:
         """The carrot (x, y) for this step: t (s), pose (estimated x, y, yaw), points (M, 2)
@@ -127,21 +133,20 @@ class GlobalPlanner:
         return carrot
 
     def carrot(self, pose: Pose) -> tuple[tuple[float, float], float]:
-        """(carrot (x, y), path length left from the pose to the goal, m): ``lookahead`` along
-        the path from its point nearest the pose; the goal itself (and its straight distance)
-        without a path."""
+        """(carrot (x, y), path length left from the pose to the goal, m): by the params' carrot
+        rule (:mod:`~d3dwa_bullet.planning.carrot`) on the last path and its costmap; the goal
+        itself (and its straight distance) without a path."""
         if self.path is None or len(self.path) < 2:
             return self.goal, math.hypot(self.goal[0] - pose[0], self.goal[1] - pose[1])
-        d = np.hypot(self.path[:, 0] - pose[0], self.path[:, 1] - pose[1])
-        k = int(np.argmin(d))
-        left = float(d[k] + self._arc[-1] - self._arc[k])
-        target = self._arc[k] + self.params.lookahead
-        if target >= self._arc[-1]:
-            return self.goal, left
-        m = int(np.searchsorted(self._arc, target))
-        f = (target - self._arc[m - 1]) / max(self._arc[m] - self._arc[m - 1], 1e-12)
-        x, y = self.path[m - 1] + f * (self.path[m] - self.path[m - 1])
-        return (float(x), float(y)), left
+        if self._last is not None and self._last[0] == tuple(pose[:2]):
+            return self._last[1]
+        point, left = carrot_point(
+            self.params.carrot, self.path, self._arc, pose, self.params.lookahead,
+            self._lethal, self.frame.origin, self.frame.resolution, self.lethal + RESOLUTION,
+        )  # fmt: skip
+        out = ((float(point[0]), float(point[1])), left)
+        self._last = (tuple(pose[:2]), out)
+        return out
 
     def observed_goal(self, pose: Pose, carrot: tuple[float, float]) -> tuple[float, float]:
         """The goal a policy's observation reads: the carrot, or (goal_distance ``path``) the
@@ -184,6 +189,7 @@ class GlobalPlanner:
             costs = cell_costs(occupancy_distance(self.occupied, grid.resolution), self.lethal)
         else:
             costs = self._static
+        self._lethal = ~np.isfinite(costs)
         start, goal = cell_of(grid, pose[:2]), cell_of(grid, self.goal)
         path = None
         if start is None or goal is None:
@@ -203,7 +209,7 @@ class GlobalPlanner:
         self.status = status
 
     def _set_path(self, t: float, path: np.ndarray | None) -> None:
-        self.path = path
+        self.path, self._last = path, None
         if path is None:
             self._tree, self._arc = None, np.zeros(0)
             return

@@ -2,7 +2,8 @@
 without it (docs/benchmarks.md, docs/design/global-plan.md).
 
 Runs one method on BARN worlds, each episode once without a global plan and once with
-``--global-plan scan`` (and ``map`` with ``--map``), alternating so a busy machine slows both
+``--global-plan scan`` (and ``map`` with ``--map``, ``scan+sight``, the ``sight`` carrot, with
+``--sight``), alternating so a busy machine slows both
 alike, all with the recovery layer and no noise. Prints the wall-clock seconds per control step
 of each, their ratio, the seconds per replan and per-step update of the plan, and the replan's
 cost as a fraction of one control step without the plan.
@@ -27,10 +28,9 @@ from tools.entry import ToolParser, tool_main
 
 
 def bench(method: str, worlds: Sequence[int], kinds: Sequence[str]) -> dict:
+    """kinds: plan names (``scan``, ``map``, ``scan+sight``: a kind with an optional carrot rule)."""
     base = EpisodeConfig(recovery=recovery_params("nav2"))
-    configs = {"none": base} | {
-        k: replace(base, global_plan=GlobalPlanParams(kind=k)) for k in kinds
-    }
+    configs = {"none": base} | {k: replace(base, global_plan=plan_params(k)) for k in kinds}
     wall = {k: 0.0 for k in configs}
     steps = {k: 0 for k in configs}
     plan = {k: [0.0, 0.0, 0] for k in kinds}  # update seconds, replan seconds, replans
@@ -62,15 +62,25 @@ def bench(method: str, worlds: Sequence[int], kinds: Sequence[str]) -> dict:
     return out
 
 
+def plan_params(name: str) -> GlobalPlanParams:
+    """The GlobalPlanParams of a plan name (``scan``, ``map``, ``scan+sight``)."""
+    kind, _, carrot = name.partition("+")
+    return GlobalPlanParams(kind=kind, carrot=carrot or "along")
+
+
 @tool_main
 def main(argv: Sequence[str] | None = None) -> None:
     ap = ToolParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--method", default="dwa3")
     ap.add_argument("--worlds", default="0,60,120,180,240", help="BARN world indices")
     ap.add_argument("--map", action="store_true", help="also time --global-plan map")
+    ap.add_argument(
+        "--sight", action="store_true", help="also time --global-plan scan --carrot sight"
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    kinds = ("scan", "map") if args.map else ("scan",)
+    kinds: tuple[str, ...] = ("scan", "map") if args.map else ("scan",)
+    kinds += ("scan+sight",) if args.sight else ()
     out = bench(args.method, [int(w) for w in args.worlds.split(",")], kinds)
     print(json.dumps(out) if args.json else json.dumps(out, indent=2))
 
