@@ -36,18 +36,14 @@ def test_bad_carrot_refused_before_anything_runs(capsys, tmp_path, one_second_wo
     assert not out.exists()
 
 
+def _scan_eval(world):
+    """eval's options for DWA III on world with the scan plan, one worker."""
+    return ["--worlds", world, "--methods", "dwa3", "--workers", "1", "--global-plan", "scan"]
+
+
 def test_the_two_rules_never_share_a_directory(capsys, tmp_path, one_second_world):
     sight, along = tmp_path / "sight", tmp_path / "along"
-    common = [
-        "--worlds",
-        one_second_world,
-        "--methods",
-        "dwa3",
-        "--workers",
-        "1",
-        "--global-plan",
-        "scan",
-    ]
+    common = _scan_eval(one_second_world)
     assert run(capsys, "eval", *common, "--carrot", "sight", "--out", sight)[0] == 0
     assert run(capsys, "eval", *common, "--out", along)[0] == 0  # the default: along
     assert plans(sight) == {"scan+sight"} and plans(along) == {"scan"}
@@ -64,16 +60,7 @@ def test_the_two_rules_never_share_a_directory(capsys, tmp_path, one_second_worl
 
 def test_a_directory_from_before_the_option_resumes_under_along(capsys, tmp_path, one_second_world):
     out = tmp_path / "old"
-    common = [
-        "--worlds",
-        one_second_world,
-        "--methods",
-        "dwa3",
-        "--workers",
-        "1",
-        "--global-plan",
-        "scan",
-    ]
+    common = _scan_eval(one_second_world)
     assert run(capsys, "eval", *common, "--seeds", "1", "--out", out)[0] == 0
     meta_path = out / "meta.json"
     meta = json.loads(meta_path.read_text())
